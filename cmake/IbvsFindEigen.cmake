@@ -1,0 +1,27 @@
+# Finds Eigen3, also where pip's cmeel-eigen put it (site-packages/cmeel.prefix,
+# which CMake does not search by itself), and says which one it used.
+macro(ibvs_find_eigen)
+  if(NOT TARGET Eigen3::Eigen)
+    set(_ibvs_cmeel "")
+    foreach(_p IN LISTS CMAKE_PREFIX_PATH)
+      if(EXISTS "${_p}/cmeel.prefix")
+        list(APPEND _ibvs_cmeel "${_p}/cmeel.prefix")
+      endif()
+    endforeach()
+    list(APPEND CMAKE_PREFIX_PATH ${_ibvs_cmeel})
+    find_package(Eigen3 3.3 QUIET NO_MODULE)
+    if(NOT Eigen3_FOUND)
+      # Last resort: the running Python's site-packages (pip install cmeel-eigen).
+      find_package(Python3 COMPONENTS Interpreter QUIET)
+      if(Python3_Interpreter_FOUND)
+        execute_process(COMMAND "${Python3_EXECUTABLE}" -c "import sysconfig; print(sysconfig.get_paths()['purelib'])"
+                        OUTPUT_VARIABLE _ibvs_purelib OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+        if(EXISTS "${_ibvs_purelib}/cmeel.prefix")
+          list(APPEND CMAKE_PREFIX_PATH "${_ibvs_purelib}/cmeel.prefix")
+        endif()
+      endif()
+      find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+    endif()
+    message(STATUS "ibvs: using Eigen ${Eigen3_VERSION} from ${Eigen3_DIR}")
+  endif()
+endmacro()

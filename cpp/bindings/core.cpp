@@ -1,0 +1,292 @@
+// Bindings of the control-law core: Layout, features/jacobian/error, the
+// pseudoinverse, Servo. Argument conversion only; the logic is in cpp/src.
+#include "convert.hpp"
+#include "ibvs/ibvs.hpp"
+
+#include <pybind11/operators.h>
+#include <pybind11/stl.h>
+
+#include <limits>
+
+#include <stdexcept>
+#include <string>
+
+namespace py = pybind11;
+using namespace ibvs;
+using namespace ibvs::py_convert;
+
+namespace {
+
+Representation representation(py::handle obj, const std::string& name) {
+  if (py::isinstance<Representation>(obj)) return obj.cast<Representation>();
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error(name + " must be 'cartesian' or 'polar', got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  const auto s = obj.cast<std::string>();
+  if (s == "cartesian") return Representation::cartesian;
+  if (s == "polar") return Representation::polar;
+  throw py::value_error(name + " must be 'cartesian' or 'polar', got '" + s + "'");
+}
+
+InteractionMatrix interaction(const std::string& s) {
+  if (s == "current") return InteractionMatrix::current;
+  if (s == "desired") return InteractionMatrix::desired;
+  if (s == "mean") return InteractionMatrix::mean;
+  throw py::value_error("jacobian must be 'current', 'desired' or 'mean', got '" + s + "'");
+}
+
+const char* interaction_name(InteractionMatrix j) {
+  return j == InteractionMatrix::desired ? "desired" : j == InteractionMatrix::mean ? "mean" : "current";
+}
+
+int int_arg(py::handle obj, const std::string& name) {
+  if (py::isinstance<py::bool_>(obj) || !py::hasattr(obj, "__index__"))
+    throw py::type_error(name + " must be an int, got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  auto i = py::reinterpret_steal<py::object>(PyNumber_Index(obj.ptr()));
+  if (!i) throw py::error_already_set();
+  return i.cast<int>();
+}
+
+Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
+  if (py::isinstance<py::str>(blocks)) throw py::type_error("blocks must be a sequence of (point_index, representation)");
+  std::vector<Block> out;
+  std::size_t k = 0;
+  for (py::handle item : blocks) {
+    const std::string where = "blocks[" + std::to_string(k++) + "]";
+    if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
+      throw py::type_error(where + " must be a pair (point_index, 'cartesian' | 'polar')");
+    const auto pair = py::reinterpret_borrow<py::sequence>(item);
+    out.push_back({int_arg(pair[0], where + "[0] (point index)"), representation(pair[1], where + "[1]")});
+  }
+  return Layout(std::move(out), n_points.is_none() ? -1 : int_arg(n_points, "n_points"));
+}
+
+int n_arg(py::handle n) { return int_arg(n, "n"); }
+
+// Python face of Servo: the C++ object plus its output and depth buffers.
+struct PyServo {
+  PyServo(Layout layout, ServoOptions o) : servo(std::move(layout), o), out(servo.layout()) {}
+  Servo servo;
+  ServoOutput out;
+  Eigen::VectorXd z, zd;
+
+  ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
+    const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
+    const auto uv = points(uv_a, "uv");
+    const auto uvd = points(uvd_a, "uv_desired");
+    const Eigen::Index n = servo.layout().n_points();
+    depths(depth_obj, "depth", n, z);
+    if (zd_obj.is_none()) {
+      if (servo.options().jacobian != InteractionMatrix::current)
+        throw py::value_error(std::string("depth_desired is required when jacobian='") +
+                              interaction_name(servo.options().jacobian) + "'");
+      zd = z;
+    } else {
+      depths(zd_obj, "depth_desired", n, zd);
+    }
+    servo.validate(uv, z, uvd, zd);
+    servo.update(uv, z, uvd, zd, out);
+    return out;
+  }
+};
+
+}  // namespace
+
+void bind_core(py::module_& m) {
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const std::invalid_argument& e) {
+      // Messages from the C++ validate path start with "ibvs: "; Python adds its own context.
+      std::string s = e.what();
+      if (s.rfind("ibvs: ", 0) == 0) s = s.substr(6);
+      PyErr_SetString(PyExc_ValueError, s.c_str());
+    }
+  });
+
+  py::enum_<Representation>(m, "Representation", "How an image point becomes two feature rows.")
+      .value("cartesian", Representation::cartesian, "(u, v), Jacobian eq. (3)")
+      .value("polar", Representation::polar, "(r, theta), Jacobian -(eq. 7)");
+
+  py::enum_<Status>(m, "Status", "Outcome of Servo.update().")
+      .value("ok", Status::ok)
+      .value("singular", Status::singular, "J numerically rank-deficient; twist is the finite min-norm/damped solution")
+      .value("invalid_input", Status::invalid_input, "non-finite input or depth <= 0 (never returned in Python: it raises)");
+
+  py::class_<Layout>(m, "Layout", R"(Which feature blocks are stacked, in which row order.
+
+Layout(blocks, n_points=None): blocks is a sequence of (point_index, "cartesian" | "polar");
+block k fills rows 2k and 2k+1 of the feature vector and the Jacobian.
+n_points defaults to the largest point index + 1.)")
+      .def(py::init(&make_layout), py::arg("blocks"), py::arg("n_points") = py::none())
+      .def_static("cartesian", [](py::handle n) { return Layout::cartesian(n_arg(n)); }, py::arg("n"),
+                  "Classic IBVS: (u_i, v_i) for each of n points, 2n x 6.")
+      .def_static("polar", [](py::handle n) { return Layout::polar(n_arg(n)); }, py::arg("n"),
+                  "IBVS-P: (r_i, theta_i) for each of n points, 2n x 6.")
+      .def_static("stacked", [](py::handle n) { return Layout::stacked(n_arg(n)); }, py::arg("n"),
+                  "Stacked hybrid: (u_i, v_i, r_i, theta_i) for each of n points, 4n x 6.")
+      .def_property_readonly("rows", &Layout::rows, "M, the number of feature rows (2 per block).")
+      .def_property_readonly("n_points", &Layout::n_points, "N, the number of image points.")
+      .def_property_readonly("blocks",
+                             [](const Layout& l) {
+                               py::list out;
+                               for (const Block& b : l.blocks())
+                                 out.append(py::make_tuple(
+                                     b.point, b.representation == Representation::polar ? "polar" : "cartesian"));
+                               return out;
+                             },
+                             "List of (point_index, representation) in row order.")
+      .def(py::self == py::self)
+      .def("__repr__", [](const Layout& l) { return "Layout." + l.describe(); })
+      .def("__hash__", [](const Layout& l) { return py::hash(py::str(l.describe())); });
+
+  m.def(
+      "features",
+      [](py::handle uv, const Layout& layout) {
+        const CArray a = as_array(uv, "uv");
+        return features(layout, points(a, "uv"));
+      },
+      py::arg("uv"), py::arg("layout"),
+      "Stacked feature vector f (M,) of the points uv (N, 2), normalised coordinates; theta in (-pi, pi].");
+
+  m.def(
+      "jacobian",
+      [](py::handle uv, py::handle depth, const Layout& layout, double polar_min_radius) {
+        const CArray a = as_array(uv, "uv");
+        const auto p = points(a, "uv");
+        Eigen::VectorXd z;
+        depths(depth, "depth", p.cols(), z);
+        return jacobian(layout, p, z, polar_min_radius);
+      },
+      py::arg("uv"), py::arg("depth"), py::arg("layout"), py::arg("polar_min_radius") = default_polar_min_radius,
+      R"(Stacked image Jacobian (M, 6): d f/dt = J @ v for the camera twist v = (Tx, Ty, Tz, wx, wy, wz).
+
+uv (N, 2) normalised coordinates; depth (metres, > 0) a scalar or (N,). A polar block whose point
+lies within polar_min_radius of the principal point gets its Cartesian rows (eq. 3) instead.)");
+
+  m.def(
+      "feature_error",
+      [](py::handle f, py::handle fd, const Layout& layout) {
+        const CArray a = as_array(f, "f"), b = as_array(fd, "f_desired");
+        return feature_error(layout, vector(a, "f"), vector(b, "f_desired"));
+      },
+      py::arg("f"), py::arg("f_desired"), py::arg("layout"),
+      "Feature error f (-) f* (M,): plain difference, theta rows wrapped into (-pi, pi] (eq. 13).");
+
+  m.def(
+      "damped_pinv",
+      [](py::handle J, double damping) {
+        const CArray a = as_array(J, "J");
+        return damped_pinv(matrix_x6(a, "J"), damping);
+      },
+      py::arg("J"), py::arg("damping") = 0.0,
+      R"(Pseudoinverse (6, M) of J (M, 6): Moore-Penrose for damping = 0 (SVD, rank-deficient J allowed),
+damped least squares (J^T J + damping^2 I)^-1 J^T for damping > 0.)");
+
+  m.def(
+      "singular_values",
+      [](py::handle J) {
+        const CArray a = as_array(J, "J");
+        return singular_values(matrix_x6(a, "J"));
+      },
+      py::arg("J"), "Singular values of J (M, 6), decreasing.");
+
+  m.def(
+      "wrap_angle",
+      [](py::handle a) -> py::object {
+        const CArray x = as_array(a, "angle");
+        py::array_t<double> out(std::vector<py::ssize_t>(x.shape(), x.shape() + x.ndim()));
+        const double* src = x.data();
+        double* dst = out.mutable_data();
+        for (py::ssize_t i = 0; i < x.size(); ++i) {
+          if (!std::isfinite(src[i])) throw py::value_error("angle must be finite");
+          dst[i] = wrap_angle(src[i]);
+        }
+        if (x.ndim() == 0) return py::float_(dst[0]);
+        return std::move(out);
+      },
+      py::arg("angle"), "Wrap angles (radians) into (-pi, pi]; exactly -pi maps to +pi.");
+
+  m.def(
+      "se3_exp",
+      [](py::handle twist) {
+        const CArray a = as_array(twist, "twist");
+        const auto x = vector(a, "twist");
+        if (x.size() != 6) throw py::value_error("twist must have shape (6,), got " + shape_of(a));
+        if (!x.allFinite()) throw py::value_error("twist must be finite");
+        return Eigen::Matrix4d(se3_exp(x));
+      },
+      py::arg("twist"),
+      R"(4x4 rigid motion exp(twist^) for a twist (Tx, Ty, Tz, wx, wy, wz) applied for unit time.
+A camera moving with twist v for dt goes from T_wc to T_wc @ se3_exp(v * dt).)");
+
+  py::class_<ServoOutput>(m, "ServoResult", "Result of one Servo.update().")
+      .def_readonly("status", &ServoOutput::status)
+      .def_readonly("velocity", &ServoOutput::velocity, "Camera twist (6,): Tx, Ty, Tz (m/s), wx, wy, wz (rad/s).")
+      .def_readonly("error", &ServoOutput::error, "Feature error f (-) f* (M,).")
+      .def_readonly("error_norm", &ServoOutput::error_norm, "Euclidean norm of error.")
+      .def_readonly("jacobian", &ServoOutput::jacobian, "Interaction matrix used (M, 6).")
+      .def_readonly("sigma_min", &ServoOutput::sigma_min, "Smallest singular value of jacobian.")
+      .def_readonly("sigma_max", &ServoOutput::sigma_max, "Largest singular value of jacobian.")
+      .def_property_readonly(
+          "condition",
+          [](const ServoOutput& o) {
+            return o.sigma_min > 0.0 ? o.sigma_max / o.sigma_min : std::numeric_limits<double>::infinity();
+          },
+          "sigma_max / sigma_min (inf when singular).")
+      .def_readonly("polar_fallbacks", &ServoOutput::polar_fallbacks,
+                    "Polar blocks computed as Cartesian this step (point within polar_min_radius of the centre).")
+      .def("__repr__", [](const ServoOutput& o) {
+        return "ServoResult(status=" + std::string(py::str(py::cast(o.status))) +
+               ", error_norm=" + std::to_string(o.error_norm) + ", sigma_min=" + std::to_string(o.sigma_min) + ")";
+      });
+
+  py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
+
+Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True)
+  gain      gamma > 0 (1/s)
+  damping   lambda >= 0: 0 = Moore-Penrose (SVD), > 0 = damped least squares
+  jacobian  "current" J(f, z), "desired" J(f*, z*) or "mean" of the two)")
+      .def(py::init([](const Layout& layout, double gain, double damping, const std::string& jac,
+                       double polar_min_radius, bool diagnostics) {
+             ServoOptions o;
+             o.gain = gain;
+             o.damping = damping;
+             o.jacobian = interaction(jac);
+             o.polar_min_radius = polar_min_radius;
+             o.diagnostics = diagnostics;
+             return PyServo(layout, o);
+           }),
+           py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
+           py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true)
+      .def("update", &PyServo::update, py::arg("uv"), py::arg("depth"), py::arg("uv_desired"),
+           py::arg("depth_desired") = py::none(),
+           R"(One control step.
+
+uv, uv_desired (N, 2): current and desired points, normalised coordinates.
+depth, depth_desired: metres, > 0, scalar or (N,); depth_desired is needed for
+jacobian="desired" or "mean". Returns a ServoResult.)")
+      .def_property_readonly("layout", [](const PyServo& s) { return s.servo.layout(); })
+      .def_property(
+          "gain", [](const PyServo& s) { return s.servo.options().gain; },
+          [](PyServo& s, double g) {
+            ServoOptions o = s.servo.options();
+            o.gain = g;
+            s.servo.set_options(o);
+          })
+      .def_property(
+          "damping", [](const PyServo& s) { return s.servo.options().damping; },
+          [](PyServo& s, double d) {
+            ServoOptions o = s.servo.options();
+            o.damping = d;
+            s.servo.set_options(o);
+          })
+      .def_property_readonly("jacobian_mode", [](const PyServo& s) { return interaction_name(s.servo.options().jacobian); })
+      .def_property_readonly("polar_min_radius", [](const PyServo& s) { return s.servo.options().polar_min_radius; })
+      .def("__repr__", [](const PyServo& s) {
+        const auto& o = s.servo.options();
+        return "Servo(Layout." + s.servo.layout().describe() + ", gain=" + std::to_string(o.gain) +
+               ", damping=" + std::to_string(o.damping) + ", jacobian='" + interaction_name(o.jacobian) + "')";
+      });
+}

@@ -1,0 +1,14 @@
+// The native module ibvs._core; each part of the library binds itself.
+#include "ibvs/version.hpp"
+
+#include <pybind11/pybind11.h>
+
+namespace py = pybind11;
+
+void bind_core(py::module_& m);
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
+  m.attr("__version__") = IBVS_VERSION;
+  bind_core(m);
+}

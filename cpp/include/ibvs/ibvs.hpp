@@ -1,0 +1,11 @@
+// ibvs: real-time image-based visual servoing with Cartesian, polar and
+// hybrid image Jacobians (Corke, Spindler, Chaumette, IROS 2009).
+// Conventions are stated once, in ibvs/features.hpp.
+#pragma once
+
+#include "ibvs/features.hpp"
+#include "ibvs/layout.hpp"
+#include "ibvs/pinv.hpp"
+#include "ibvs/se3.hpp"
+#include "ibvs/servo.hpp"
+#include "ibvs/version.hpp"

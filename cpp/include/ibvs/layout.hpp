@@ -1,0 +1,78 @@
+// Layout: which feature blocks are stacked, in which row order (paper eqs. 9-10
+// and Section V), and the stacked features, Jacobian and error it defines.
+#pragma once
+
+#include "ibvs/features.hpp"
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+namespace ibvs {
+
+/// Image points, one column (u, v) per point: 2xN, column-major. Its memory is
+/// that of a C-ordered numpy array of shape (N, 2).
+using Points = Eigen::Matrix2Xd;
+
+/// One 2-row block of the stacked feature vector / Jacobian.
+struct Block {
+  int point = 0;  ///< index of the image point, 0 <= point < n_points
+  Representation representation = Representation::cartesian;
+};
+
+/// An ordered list of blocks; block k fills rows 2k and 2k+1.
+class Layout {
+ public:
+  /// Every block of point `point` is distinct; indices in [0, n_points).
+  /// n_points < 0 means "largest index + 1". Throws std::invalid_argument.
+  explicit Layout(std::vector<Block> blocks, int n_points = -1);
+
+  static Layout cartesian(int n);  ///< (u_i, v_i) for i = 0..n-1: 2N x 6
+  static Layout polar(int n);      ///< (r_i, theta_i): 2N x 6, IBVS-P
+  static Layout stacked(int n);    ///< (u_i, v_i, r_i, theta_i) per point: 4N x 6
+
+  int n_points() const noexcept { return n_points_; }
+  int rows() const noexcept { return static_cast<int>(2 * blocks_.size()); }
+  const std::vector<Block>& blocks() const noexcept { return blocks_; }
+  /// "cartesian(4)", "polar(4)", "stacked(4)" or the explicit block list.
+  std::string describe() const;
+
+  bool operator==(const Layout& o) const noexcept;
+
+ private:
+  std::vector<Block> blocks_;
+  int n_points_ = 0;
+};
+
+// ---- stacked quantities (allocation-free; outputs must already be sized) ----
+// Inputs are not validated here; the allocating wrappers in interaction.hpp and
+// Servo::validate() do that.
+
+/// Feature vector f (rows): (u, v) or (r, theta) per block.
+void stacked_features(const Layout& layout, const Eigen::Ref<const Points>& uv,
+                      Eigen::Ref<Eigen::VectorXd> f) noexcept;
+
+/// Stacked Jacobian (rows x 6) at the given points and depths. A polar block
+/// whose point has r < polar_min_radius is given its Cartesian rows instead
+/// (theta and its 1/r rows are undefined at the principal point).
+void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
+                      const Eigen::Ref<const Eigen::VectorXd>& depth,
+                      Eigen::Ref<MatrixX6> J,
+                      double polar_min_radius = default_polar_min_radius) noexcept;
+
+/// Feature error f (-) f*: plain difference, theta rows wrapped by wrap_angle().
+void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
+                   const Eigen::Ref<const Eigen::VectorXd>& f_desired,
+                   Eigen::Ref<Eigen::VectorXd> e) noexcept;
+
+// ---- allocating versions that validate first (throw std::invalid_argument) ----
+
+Eigen::VectorXd features(const Layout& layout, const Eigen::Ref<const Points>& uv);
+MatrixX6 jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
+                  const Eigen::Ref<const Eigen::VectorXd>& depth,
+                  double polar_min_radius = default_polar_min_radius);
+Eigen::VectorXd feature_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
+                              const Eigen::Ref<const Eigen::VectorXd>& f_desired);
+
+}  // namespace ibvs

@@ -1,0 +1,109 @@
+// Servo: the real-time IBVS control law v = -gain * J+ (f (-) f*) (paper
+// eqs. 11-13) for any Layout: Cartesian, polar, per-point hybrid or stacked.
+//
+// Two error channels, as in ruckig:
+//  * validate(...) throws std::invalid_argument with a message naming the bad
+//    argument (the Python bindings call it before every update);
+//  * update(...) is noexcept, allocates nothing and returns a Status.
+#pragma once
+
+#include "ibvs/layout.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <memory>
+
+namespace ibvs {
+
+/// Where the interaction matrix is evaluated (the choices ViSP users know).
+enum class InteractionMatrix : std::uint8_t {
+  current = 0,  ///< J(f, z): current features and depths
+  desired = 1,  ///< J(f*, z*): desired features and desired depths
+  mean = 2,     ///< (J(f, z) + J(f*, z*)) / 2
+};
+
+/// Outcome of one update().
+enum class Status : std::int8_t {
+  ok = 0,
+  singular = 1,        ///< J is numerically rank-deficient; the twist is still the
+                       ///< finite minimum-norm (or damped) solution
+  invalid_input = -1,  ///< non-finite value, depth <= 0 or wrong size: twist set to 0
+};
+
+struct ServoOptions {
+  double gain = 0.5;                                    ///< gamma > 0, 1/s
+  double damping = 0.0;                                 ///< lambda >= 0 (same units as J's singular values)
+  InteractionMatrix jacobian = InteractionMatrix::current;
+  double polar_min_radius = default_polar_min_radius;  ///< r -> 0 policy, >= 0
+  bool diagnostics = true;                              ///< compute sigma_min / sigma_max every step
+};
+
+/// Per-frame input, sized once for a layout (N points).
+struct ServoInput {
+  explicit ServoInput(const Layout& layout);
+  Points uv;                     ///< current points, 2 x N, normalised coordinates
+  Eigen::VectorXd depth;         ///< current depths z > 0, metres, N
+  Points uv_desired;             ///< desired points, 2 x N
+  Eigen::VectorXd depth_desired; ///< desired depths, N (used by desired / mean)
+};
+
+/// Per-frame output, sized once for a layout (M rows).
+struct ServoOutput {
+  explicit ServoOutput(const Layout& layout);
+  Status status = Status::ok;
+  Twist velocity = Twist::Zero();  ///< camera twist (Tx, Ty, Tz, wx, wy, wz), m/s and rad/s
+  Eigen::VectorXd error;           ///< f (-) f*, M
+  double error_norm = 0.0;         ///< |error|_2
+  MatrixX6 jacobian;               ///< the interaction matrix used, M x 6
+  double sigma_min = 0.0;          ///< smallest singular value of jacobian (of the 6 columns)
+  double sigma_max = 0.0;          ///< largest singular value of jacobian
+  int polar_fallbacks = 0;         ///< polar blocks computed as Cartesian (r < polar_min_radius)
+};
+
+/// The control law. Build once per layout; call update() every frame.
+///
+/// Pseudoinverse route: damping > 0 solves the 6x6 damped normal equations
+/// (J^T J + lambda^2 I) x = J^T e by Cholesky (fast, exact DLS); damping = 0
+/// uses a QR of J then an SVD of its 6x6 R factor (robust Moore-Penrose, also
+/// for rank-deficient J). Diagnostics on the damped route come from the
+/// eigenvalues of J^T J, so sigma_min there is resolved to ~1e-8 * sigma_max.
+///
+/// r -> 0 policy: a polar block whose current or desired radius is below
+/// polar_min_radius uses its Cartesian rows and Cartesian error for that step
+/// (theta is undefined at the principal point and its rows grow as 1/r);
+/// counted in ServoOutput::polar_fallbacks.
+class Servo {
+ public:
+  explicit Servo(Layout layout, ServoOptions options = {});  // throws std::invalid_argument
+  ~Servo();
+  Servo(Servo&&) noexcept;
+  Servo& operator=(Servo&&) noexcept;
+
+  const Layout& layout() const noexcept { return layout_; }
+  const ServoOptions& options() const noexcept { return options_; }
+  /// Replace the options (gain scheduling etc.). Throws on invalid values; never allocates.
+  void set_options(const ServoOptions& options);
+  static void validate(const ServoOptions& options);
+
+  /// Throws std::invalid_argument naming the first bad argument.
+  void validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                const Eigen::Ref<const Points>& uv_desired,
+                const Eigen::Ref<const Eigen::VectorXd>& depth_desired) const;
+
+  /// One control step. Real-time safe: noexcept, no heap allocation.
+  Status update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                ServoOutput& out) noexcept;
+  Status update(const ServoInput& in, ServoOutput& out) noexcept {
+    return update(in.uv, in.depth, in.uv_desired, in.depth_desired, out);
+  }
+
+ private:
+  struct Kernel;  // sized workspace: fixed 8 or 16 rows, or dynamic
+  Layout layout_;
+  ServoOptions options_;
+  std::unique_ptr<Kernel> kernel_;
+};
+
+}  // namespace ibvs

@@ -1,0 +1,39 @@
+#include "ibvs/pinv.hpp"
+
+#include "checks.hpp"
+
+#include <Eigen/SVD>
+
+#include <stdexcept>
+#include <string>
+
+namespace ibvs {
+namespace {
+
+void check_matrix(const Eigen::Ref<const MatrixX6>& J) {
+  if (J.rows() == 0) throw std::invalid_argument("ibvs: J must have at least one row");
+  if (!J.allFinite()) throw std::invalid_argument("ibvs: J must contain only finite values");
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> damped_pinv(const Eigen::Ref<const MatrixX6>& J, double damping) {
+  check_matrix(J);
+  detail::check_nonnegative(damping, "damping");
+  // A dynamic column count lets JacobiSVD return the thin factors.
+  const Eigen::MatrixXd A = J;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  const double tol = rank_tolerance(J.rows(), s.size() ? s(0) : 0.0);
+  Eigen::VectorXd phi(s.size());
+  for (Eigen::Index i = 0; i < s.size(); ++i) phi(i) = pinv_factor(s(i), damping, tol);
+  return svd.matrixV() * phi.asDiagonal() * svd.matrixU().transpose();
+}
+
+Eigen::VectorXd singular_values(const Eigen::Ref<const MatrixX6>& J) {
+  check_matrix(J);
+  const Eigen::MatrixXd A = J;
+  return Eigen::JacobiSVD<Eigen::MatrixXd>(A).singularValues();
+}
+
+}  // namespace ibvs

@@ -1,0 +1,208 @@
+#include "ibvs/servo.hpp"
+
+#include "checks.hpp"
+#include "ibvs/pinv.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <variant>
+
+namespace ibvs {
+namespace {
+
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+
+// Workspace for one row count. Rows is 8 or 16 (the paper's 4 points, 2N and
+// 4N rows: stack storage, fully unrolled products) or Dynamic. The stored
+// Jacobian has max(M, 6) rows; rows past M stay zero so that the QR below is
+// always of a tall matrix ([J; 0]+ = [J+, 0], so the solution is unchanged).
+template <int Rows>
+struct Work {
+  using Jac = Eigen::Matrix<double, Rows, 6>;
+  using Vec = Eigen::Matrix<double, Rows, 1>;
+
+  explicit Work(Eigen::Index m)
+      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
+        e(Vec::Zero(J.rows())),
+        qte(J.rows()),
+        qr(J.rows(), 6),
+        svd(6, 6, Eigen::ComputeFullU | Eigen::ComputeFullV) {}
+
+  Jac J;
+  Vec e;
+  Vec qte;
+  Matrix6 A;
+  Eigen::LLT<Matrix6> llt;
+  Eigen::SelfAdjointEigenSolver<Matrix6> eig;
+  Eigen::HouseholderQR<Jac> qr;
+  Eigen::JacobiSVD<Matrix6> svd;
+
+  // Fills J and e for this frame; returns the number of polar fallbacks.
+  int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
+               const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
+               const Eigen::Ref<const Eigen::VectorXd>& zd) noexcept {
+    int fallbacks = 0;
+    Eigen::Index row = 0;
+    for (const Block& b : layout.blocks()) {
+      const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+      bool polar = b.representation == Representation::polar;
+      if (polar && (std::hypot(u, v) < o.polar_min_radius || std::hypot(ud, vd) < o.polar_min_radius)) {
+        polar = false;
+        ++fallbacks;
+      }
+      // Error f (-) f* (eq. 13): theta difference wrapped into (-pi, pi].
+      if (polar) {
+        const Eigen::Vector2d f = polar_features(u, v), fd = polar_features(ud, vd);
+        e(row) = f(0) - fd(0);
+        e(row + 1) = wrap_angle(f(1) - fd(1));
+      } else {
+        e(row) = u - ud;
+        e(row + 1) = v - vd;
+      }
+      const auto jac = [polar](double pu, double pv, double pz) {
+        return polar ? polar_jacobian(pu, pv, pz) : cartesian_jacobian(pu, pv, pz);
+      };
+      switch (o.jacobian) {
+        case InteractionMatrix::current: J.template middleRows<2>(row) = jac(u, v, z(b.point)); break;
+        case InteractionMatrix::desired: J.template middleRows<2>(row) = jac(ud, vd, zd(b.point)); break;
+        case InteractionMatrix::mean:
+          J.template middleRows<2>(row) = 0.5 * (jac(u, v, z(b.point)) + jac(ud, vd, zd(b.point)));
+          break;
+      }
+      row += 2;
+    }
+    return fallbacks;
+  }
+
+  // x = J+ e (damped or Moore-Penrose); returns true when J is rank-deficient.
+  bool solve(const ServoOptions& o, Eigen::Index m, Twist& x, double& smin, double& smax) noexcept {
+    const double lambda = o.damping;
+    if (lambda > 0.0) {
+      A.noalias() = J.transpose().lazyProduct(J);
+      bool singular = false;
+      if (o.diagnostics) {
+        eig.compute(A, Eigen::EigenvaluesOnly);
+        smin = std::sqrt(std::max(eig.eigenvalues()(0), 0.0));
+        smax = std::sqrt(std::max(eig.eigenvalues()(5), 0.0));
+        // sqrt(eps): what the eigenvalues of J^T J can resolve.
+        singular = !(smin > 1.5e-8 * smax);
+      }
+      A.diagonal().array() += lambda * lambda;
+      llt.compute(A);
+      x.noalias() = J.transpose().lazyProduct(e);
+      llt.solveInPlace(x);
+      return singular;
+    }
+    qr.compute(J);
+    const Matrix6 R = qr.matrixQR().template topRows<6>().template triangularView<Eigen::Upper>();
+    svd.compute(R);
+    qte = e;
+    qte.applyOnTheLeft(qr.householderQ().transpose());
+    const auto& s = svd.singularValues();
+    smin = s(5);
+    smax = s(0);
+    const double tol = rank_tolerance(m, smax);
+    Twist y = svd.matrixU().transpose() * qte.template head<6>();
+    for (int i = 0; i < 6; ++i) y(i) *= pinv_factor(s(i), 0.0, tol);
+    x.noalias() = svd.matrixV() * y;
+    return !(smin > tol);
+  }
+};
+
+bool finite_positive(const Eigen::Ref<const Eigen::VectorXd>& z) noexcept {
+  for (Eigen::Index i = 0; i < z.size(); ++i)
+    if (!(z(i) > 0.0) || !std::isfinite(z(i))) return false;
+  return true;
+}
+
+}  // namespace
+
+struct Servo::Kernel {
+  std::variant<Work<8>, Work<16>, Work<Eigen::Dynamic>> work;
+
+  static decltype(work) make(int rows) {
+    if (rows == 8) return Work<8>(8);
+    if (rows == 16) return Work<16>(16);
+    return Work<Eigen::Dynamic>(rows);
+  }
+  explicit Kernel(int rows) : work(make(rows)) {}
+};
+
+ServoInput::ServoInput(const Layout& layout)
+    : uv(Points::Zero(2, layout.n_points())),
+      depth(Eigen::VectorXd::Ones(layout.n_points())),
+      uv_desired(Points::Zero(2, layout.n_points())),
+      depth_desired(Eigen::VectorXd::Ones(layout.n_points())) {}
+
+ServoOutput::ServoOutput(const Layout& layout)
+    : error(Eigen::VectorXd::Zero(layout.rows())), jacobian(MatrixX6::Zero(layout.rows(), 6)) {}
+
+Servo::Servo(Layout layout, ServoOptions options) : layout_(std::move(layout)) {
+  set_options(options);
+  kernel_ = std::make_unique<Kernel>(layout_.rows());
+}
+
+Servo::~Servo() = default;
+Servo::Servo(Servo&&) noexcept = default;
+Servo& Servo::operator=(Servo&&) noexcept = default;
+
+void Servo::validate(const ServoOptions& o) {
+  if (!(o.gain > 0.0) || !std::isfinite(o.gain))
+    throw std::invalid_argument("ibvs: gain must be finite and > 0, got " + std::to_string(o.gain));
+  detail::check_nonnegative(o.damping, "damping");
+  detail::check_nonnegative(o.polar_min_radius, "polar_min_radius");
+  if (o.jacobian != InteractionMatrix::current && o.jacobian != InteractionMatrix::desired &&
+      o.jacobian != InteractionMatrix::mean)
+    throw std::invalid_argument("ibvs: jacobian must be current, desired or mean");
+}
+
+void Servo::set_options(const ServoOptions& options) {
+  validate(options);
+  options_ = options;
+}
+
+void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                     const Eigen::Ref<const Points>& uv_desired,
+                     const Eigen::Ref<const Eigen::VectorXd>& depth_desired) const {
+  const int n = layout_.n_points();
+  detail::check_points(uv, "uv", n);
+  detail::check_depth(depth, "depth", n);
+  detail::check_points(uv_desired, "uv_desired", n);
+  if (options_.jacobian != InteractionMatrix::current) detail::check_depth(depth_desired, "depth_desired", n);
+}
+
+Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                     const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                     ServoOutput& out) noexcept {
+  const int n = layout_.n_points();
+  const Eigen::Index m = layout_.rows();
+  const bool uses_zd = options_.jacobian != InteractionMatrix::current;
+  const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
+                  out.error.size() == m && out.jacobian.rows() == m && uv.allFinite() && uv_desired.allFinite() &&
+                  finite_positive(depth) && (!uses_zd || finite_positive(depth_desired));
+  if (!ok) {
+    out.velocity.setZero();
+    return out.status = Status::invalid_input;
+  }
+  return std::visit(
+      [&](auto& w) noexcept {
+        out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired);
+        out.sigma_min = out.sigma_max = 0.0;
+        Twist x;
+        const bool singular = w.solve(options_, m, x, out.sigma_min, out.sigma_max);
+        out.velocity = -options_.gain * x;
+        out.error = w.e.head(m);
+        out.error_norm = out.error.norm();
+        out.jacobian = w.J.topRows(m);
+        return out.status = singular ? Status::singular : Status::ok;
+      },
+      kernel_->work);
+}
+
+}  // namespace ibvs

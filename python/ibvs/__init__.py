@@ -1,0 +1,51 @@
+"""ibvs: real-time image-based visual servoing with Cartesian, polar and hybrid Jacobians.
+
+Conventions (everywhere the same):
+  camera frame x right, y down, z forward; camera twist v = (Tx, Ty, Tz, wx, wy, wz)
+  in the camera frame (m/s, rad/s); image points in normalised coordinates
+  (unit focal length) with shape (N, 2); depths in metres; angles in radians.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ._core import (
+    Layout,
+    Representation,
+    Servo,
+    ServoResult,
+    Status,
+    __version__,
+    damped_pinv,
+    feature_error,
+    features,
+    jacobian,
+    se3_exp,
+    singular_values,
+    wrap_angle,
+)
+
+__all__ = [
+    "Layout",
+    "Representation",
+    "Servo",
+    "ServoResult",
+    "Status",
+    "__version__",
+    "cmake_dir",
+    "damped_pinv",
+    "feature_error",
+    "features",
+    "jacobian",
+    "se3_exp",
+    "singular_values",
+    "wrap_angle",
+]
+
+
+def cmake_dir() -> str:
+    """Directory holding ibvsConfig.cmake: pass it as ibvs_DIR to find_package(ibvs)."""
+    from . import _core
+
+    return str(Path(_core.__file__).resolve().parent / "share" / "cmake" / "ibvs")
