@@ -5,7 +5,7 @@
 
 namespace py = pybind11;
 
-void bind_core(py::module_& m);
+void bind_core(py::module_& m);  // bind_core.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
