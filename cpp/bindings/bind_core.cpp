@@ -138,7 +138,11 @@ n_points defaults to the largest point index + 1.)")
                              },
                              "List of (point_index, representation) in row order.")
       .def(py::self == py::self)
-      .def("__repr__", [](const Layout& l) { return "Layout." + l.describe(); })
+      .def("__repr__",
+           [](const Layout& l) {
+             const std::string d = l.describe();
+             return d[0] == '[' ? "Layout(" + d + ")" : "Layout." + d;
+           })
       .def("__hash__", [](const Layout& l) { return py::hash(py::str(l.describe())); });
 
   m.def(

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <variant>
 
 namespace ibvs {
@@ -30,7 +31,8 @@ struct Work {
   explicit Work(Eigen::Index m)
       : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
         e(Vec::Zero(J.rows())),
-        qte(J.rows()),
+        qte(Vec::Zero(J.rows())),
+        A(Matrix6::Zero()),
         qr(J.rows(), 6),
         svd(6, 6, Eigen::ComputeFullU | Eigen::ComputeFullV) {}
 
@@ -124,14 +126,17 @@ bool finite_positive(const Eigen::Ref<const Eigen::VectorXd>& z) noexcept {
 }  // namespace
 
 struct Servo::Kernel {
-  std::variant<Work<8>, Work<16>, Work<Eigen::Dynamic>> work;
+  // Built in place (the workspaces are large and never move).
+  std::variant<std::monostate, Work<8>, Work<16>, Work<Eigen::Dynamic>> work;
 
-  static decltype(work) make(int rows) {
-    if (rows == 8) return Work<8>(8);
-    if (rows == 16) return Work<16>(16);
-    return Work<Eigen::Dynamic>(rows);
+  explicit Kernel(int rows) {
+    if (rows == 8)
+      work.emplace<Work<8>>(8);
+    else if (rows == 16)
+      work.emplace<Work<16>>(16);
+    else
+      work.emplace<Work<Eigen::Dynamic>>(rows);
   }
-  explicit Kernel(int rows) : work(make(rows)) {}
 };
 
 ServoInput::ServoInput(const Layout& layout)
@@ -192,6 +197,9 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
   }
   return std::visit(
       [&](auto& w) noexcept {
+        if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
+          return out.status = Status::invalid_input;  // unreachable: the constructor always builds a kernel
+        } else {
         out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired);
         out.sigma_min = out.sigma_max = 0.0;
         Twist x;
@@ -201,6 +209,7 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
         out.error_norm = out.error.norm();
         out.jacobian = w.J.topRows(m);
         return out.status = singular ? Status::singular : Status::ok;
+        }
       },
       kernel_->work);
 }

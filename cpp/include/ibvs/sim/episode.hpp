@@ -1,0 +1,172 @@
+// The closed loop of one episode, entirely in C++: camera -> measurement
+// (distortion, noise, latency) -> undistorted normalised points -> Servo ->
+// camera twist -> free-flying camera or gantry joints -> next frame.
+//
+// Each frame k (period dt = 1 / fps):
+//   1. true camera pose T_wc(k): from the exact SE(3) integration of the
+//      previous command (free-flying, T_wc <- T_wc exp(v dt)) or from the
+//      gantry's forward kinematics at its joint positions;
+//   2. the target's points in the camera frame; a point with depth below
+//      min_depth ends the episode (behind_camera), as does a point whose
+//      noise-free projection falls outside the sensor (left_image);
+//   3. the measurement: projection with kud plus Gaussian noise (seeded),
+//      written into a latency ring buffer; the controller reads the one taken
+//      `latency` frames earlier (before t = 0 the camera sat at its start);
+//   4. the controller's points: the delayed measurement undistorted with kdu;
+//      depths exact (of the delayed frame), from a planar pose estimate, or
+//      the constant desired depths;
+//   5. Servo::update (paper eqs. 11-13) gives the camera twist; the episode
+//      ends when the error norm is under tolerance (converged), the servo
+//      reports a singular J (singular) or the error / target depth blows up
+//      (diverged);
+//   6. the twist moves the camera (free) or, on the gantry, becomes joint
+//      velocities through the damped inverse of the camera Jacobian, scaled
+//      uniformly to the speed limits; a joint leaving its range ends the
+//      episode (joint_limit) with the robot stopped at its last valid q.
+// Desired features are measured the same way at the goal pose (teach by
+// showing), so the goal is an exact equilibrium of the noise-free loop.
+//
+// Episode preallocates everything; run() does not touch the heap.
+#pragma once
+
+#include "ibvs/servo.hpp"
+#include "ibvs/sim/camera.hpp"
+#include "ibvs/sim/gantry.hpp"
+#include "ibvs/sim/planar_pose.hpp"
+#include "ibvs/sim/target.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <optional>
+#include <random>
+
+namespace ibvs::sim {
+
+/// Depth given to the controller.
+enum class DepthMode : std::uint8_t {
+  exact = 0,    ///< true depth of each point (paper Section III-A)
+  pose = 1,     ///< from a planar pose estimate of the measured points (Section III-B)
+  desired = 2,  ///< the constant desired depths z*
+};
+
+/// How an episode ended.
+enum class Outcome : std::uint8_t {
+  converged = 0,      ///< error norm < tolerance
+  left_image = 1,     ///< a point left the sensor (EpisodeStatus::point)
+  behind_camera = 2,  ///< a point's depth fell below min_depth (EpisodeStatus::point)
+  joint_limit = 3,    ///< the next step would leave a joint's range (EpisodeStatus::joint)
+  singular = 4,       ///< the servo reported a rank-deficient interaction matrix
+  diverged = 5,       ///< non-finite state, error or target depth beyond its bound
+  timeout = 6,        ///< duration elapsed
+};
+const char* to_string(Outcome o) noexcept;
+const char* to_string(DepthMode d) noexcept;
+
+struct EpisodeOptions {
+  double duration = 10.0;   ///< seconds; the history holds lround(duration * fps) frames
+  double noise = 0.0;       ///< std of the Gaussian measurement noise, measurement units (pixels)
+  int latency = 0;          ///< frames between capture and control, >= 0
+  DepthMode depth = DepthMode::exact;
+  std::uint64_t seed = 0;   ///< std::mt19937_64 seed of the noise
+  double tolerance = 1e-4;  ///< converged when the servo's error norm is below this
+  double min_depth = 1e-3;  ///< metres; behind_camera below it
+  double max_depth_ratio = 10.0;   ///< diverged when the target's depth exceeds this times its start depth
+  double max_error_ratio = 100.0;  ///< diverged when the error norm exceeds this times its first value
+  bool stop_on_singular = true;    ///< end with `singular` when the servo reports it
+
+  void validate() const;  ///< throws std::invalid_argument naming the field
+};
+
+struct EpisodeStatus {
+  Outcome outcome = Outcome::timeout;
+  int frame = -1;  ///< frame of the event (last frame for timeout)
+  int point = -1;  ///< point index for left_image / behind_camera
+  int joint = -1;  ///< joint index for joint_limit
+};
+
+struct Metrics {
+  int frames_to_converge = -1;   ///< -1 unless converged
+  double camera_retreat = 0.0;   ///< max over k of (target depth(k) - target depth(0)), >= 0, metres
+  double path_length = 0.0;      ///< length of the camera centre's path, metres
+  double final_translation_error = 0.0;  ///< |p - p_goal| at the last frame, metres
+  double final_rotation_error = 0.0;     ///< angle of R_goal^T R at the last frame, radians
+};
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// Row k = frame k; the first `frames` rows are valid. Quantities the last
+/// frame could not compute (an event stopped it) are NaN.
+struct History {
+  int frames = 0;
+  Eigen::VectorXd time;    ///< s
+  RowMatrix pose;          ///< K x 16: world <- camera, 4x4 row-major
+  RowMatrix q, qdot;       ///< K x 6 (gantry only; 0 columns otherwise): qdot applied after frame k
+  RowMatrix twist;         ///< K x 6: commanded camera twist
+  RowMatrix uv;            ///< K x 2N: controller's (u, v) per point, normalised
+  RowMatrix rtheta;        ///< K x 2N: the same points as (r, theta)
+  RowMatrix depth;         ///< K x N: depths given to the controller
+  RowMatrix error;         ///< K x M: f (-) f*
+  Eigen::VectorXd error_norm, sigma_min;
+  Eigen::VectorXd robot_sigma_min;  ///< smallest singular value of the gantry's camera Jacobian (gantry only)
+};
+
+struct EpisodeResult {
+  EpisodeStatus status;
+  Metrics metrics;
+  History history;
+  Points uv_desired;              ///< 2 x N, what the controller aims at
+  Eigen::VectorXd depth_desired;  ///< N
+  Pose goal = Pose::Identity();   ///< world <- camera at the goal
+};
+
+/// One simulated set-up, run as often as wanted. The constructor validates
+/// (throws std::invalid_argument) and allocates; run() only checks its start
+/// and goal (throws) and then loops without allocating.
+class Episode {
+ public:
+  /// Free-flying camera.
+  Episode(Servo servo, Camera camera, Target target, EpisodeOptions options = {});
+  /// Camera on the gantry.
+  Episode(Servo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options = {});
+
+  /// Free-flying: start and goal are world <- camera poses.
+  const EpisodeResult& run(const Pose& start, const Pose& goal);
+  /// Gantry: start joints; goal joints or a world <- camera pose.
+  const EpisodeResult& run(const Joints& q_start, const Joints& q_goal);
+  const EpisodeResult& run(const Joints& q_start, const Pose& goal);
+
+  const EpisodeResult& result() const noexcept { return result_; }
+  int capacity() const noexcept { return static_cast<int>(result_.history.time.size()); }
+  bool has_gantry() const noexcept { return gantry_.has_value(); }
+  Servo& servo() noexcept { return servo_; }
+
+ private:
+  void prepare(const Pose& goal);
+  void loop(Pose T_wc, const Joints* q_start) noexcept;
+
+  Servo servo_;
+  ServoOutput out_;
+  Camera camera_;
+  Target target_;
+  std::optional<Gantry> gantry_;
+  EpisodeOptions options_;
+  std::optional<PlanarPose> estimator_;
+  Eigen::Matrix3Xd world_points_;
+  Eigen::Vector3d centroid_;  // target frame
+  // per-frame work
+  Eigen::Matrix3Xd pc_;
+  Points measured_;   // 2 x N(L+1) ring of noisy measurements
+  RowMatrix ring_depth_;  // (L+1) x N true depths
+  Points uv_;
+  Eigen::VectorXd z_;
+  EpisodeResult result_;
+};
+
+/// One call per episode (allocates its Episode; for repeated runs keep an Episode).
+EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Pose& start,
+                          const Pose& goal, const EpisodeOptions& options = {});
+EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Gantry& gantry,
+                          const Joints& q_start, const Joints& q_goal, const EpisodeOptions& options = {});
+
+}  // namespace ibvs::sim

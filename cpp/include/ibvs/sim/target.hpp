@@ -1,0 +1,35 @@
+// The observed object: N points given in the target's own frame, and the
+// target's pose in the world.
+#pragma once
+
+#include "ibvs/se3.hpp"
+
+#include <Eigen/Core>
+
+#include <string>
+
+namespace ibvs::sim {
+
+struct Target {
+  Eigen::Matrix3Xd points;         ///< 3 x N, target frame, metres
+  Pose pose = Pose::Identity();    ///< world <- target
+
+  /// Paper Table I: the four points (+-0.25, +-0.25, 3) in the world (target
+  /// frame at (0, 0, 3), axes of the world). Order: (-,-), (+,-), (+,+), (-,+).
+  static Target paper();
+  /// Four dots at the corners of a square of the given side, centred on the
+  /// target origin in its z = 0 plane (Section III-B: a 10 cm square), same order.
+  static Target square(double side = 0.1, const Pose& pose = Pose::Identity());
+
+  int size() const noexcept { return static_cast<int>(points.cols()); }
+  /// All points in the target's z = 0 plane (needed by the pose depth mode).
+  bool planar(double tol = 1e-12) const noexcept;
+  /// Points in the world frame, 3 x N.
+  Eigen::Matrix3Xd world_points() const;
+
+  /// Throws std::invalid_argument naming the bad field.
+  void validate() const;
+  std::string describe() const;
+};
+
+}  // namespace ibvs::sim

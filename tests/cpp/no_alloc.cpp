@@ -1,0 +1,62 @@
+// Proof that Servo::update allocates nothing: this executable compiles the
+// library with EIGEN_RUNTIME_NO_MALLOC (Eigen aborts on any heap use while
+// malloc is disallowed) and also counts every operator new.
+#include "check.hpp"
+
+#include "ibvs/ibvs.hpp"
+
+#include <atomic>
+#include <new>
+
+namespace {
+std::atomic<long> news{0};
+}
+
+void* operator new(std::size_t n) {
+  ++news;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace ibvs;
+
+void run_tests() {
+  const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
+                       {3, Representation::polar}});
+  // 8 and 16 rows (fixed kernels), 2, 6, 12 and 256 rows (dynamic kernel).
+  for (const Layout& L : {Layout::cartesian(4), Layout::stacked(4), hybrid, Layout::polar(1), Layout::cartesian(3),
+                          Layout::stacked(3), Layout::stacked(64)}) {
+    for (double lambda : {0.0, 0.01}) {
+      for (auto mode : {InteractionMatrix::current, InteractionMatrix::desired, InteractionMatrix::mean}) {
+        for (bool diag : {true, false}) {
+          ServoOptions o;
+          o.damping = lambda;
+          o.jacobian = mode;
+          o.diagnostics = diag;
+          Servo servo(L, o);
+          ServoInput in(L);
+          ServoOutput out(L);
+          for (int i = 0; i < L.n_points(); ++i) {
+            const double a = 2 * pi * i / L.n_points();
+            in.uv.col(i) << 0.1 * std::cos(a), 0.1 * std::sin(a);
+            in.uv_desired.col(i) << 0.12 * std::cos(a + 2.5), 0.12 * std::sin(a + 2.5);
+          }
+          in.uv.col(0).setZero();  // exercise the r -> 0 fallback as well
+          const long before = news.load();
+          Eigen::internal::set_is_malloc_allowed(false);
+          Status st = Status::ok;
+          for (int k = 0; k < 3; ++k) st = servo.update(in, out);
+          in.depth(0) = -1.0;  // the invalid-input path must not allocate either
+          const Status bad = servo.update(in, out);
+          Eigen::internal::set_is_malloc_allowed(true);
+          const long during = news.load() - before;
+          ibvs_test::report(during == 0, "no operator new in update", __FILE__, __LINE__, L.describe());
+          CHECK(st != Status::invalid_input && bad == Status::invalid_input);
+          CHECK(out.velocity.allFinite());
+        }
+      }
+    }
+  }
+}
