@@ -1,0 +1,773 @@
+// ibvs-bench: the control loop timed, part by part and whole, and run paced at
+// real-time rates. A plain main() program: no benchmark framework.
+//
+//   ibvs-bench                        components (N=4, each layout), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz
+//   ibvs-bench --paced 1000 --duration 10
+//   ibvs-bench --sections components --layout stacked --n 4 --iterations 1000000
+//   ibvs-bench --json                 one JSON line on stdout (the table goes to stderr)
+//
+// Every timed case: warm-up, then a batched loop (total time / iterations:
+// mean and steps/s), then per-call timing with std::chrono::steady_clock
+// (median, p99, max; the timer's own median cost is subtracted). Inputs cycle
+// through 64 different frames; results go through an optimisation barrier.
+#include "kernels.hpp"
+
+#include "ibvs/ibvs.hpp"
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <functional>
+#include <new>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#if defined(__linux__)
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/prctl.h>
+#include <time.h>
+#else
+#include <thread>
+#endif
+
+// ---- allocation counter -----------------------------------------------------
+// With glibc, malloc/calloc/realloc are interposed here, so that every heap
+// allocation of the process is counted: operator new and Eigen's own
+// aligned_malloc both end in malloc. Elsewhere only operator new is counted.
+namespace {
+std::atomic<long> g_allocations{0};
+}
+#if defined(__GLIBC__)
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* malloc(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t n, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_realloc(p, n);
+}
+}
+#else
+void* operator new(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+#endif
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using ibvs::Layout;
+using ibvs::Points;
+using ibvs::Twist;
+using ibvs_bench::Kind;
+
+/// Keeps a value alive for the optimiser (as Google Benchmark's DoNotOptimize).
+template <class T>
+inline void keep(T const& value) {
+#if defined(__GNUC__)
+  asm volatile("" : : "r,m"(value) : "memory");
+#else
+  static volatile const void* sink;
+  sink = &value;
+#endif
+}
+
+inline double ns_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::nano>(b - a).count();
+}
+
+// ---------------------------------------------------------------- options --
+struct Options {
+  long iterations = 100000;
+  long warmup = -1;  // default: iterations / 10, at least 1000
+  std::vector<std::string> layouts;
+  std::vector<int> ns;
+  bool layouts_given = false, ns_given = false;
+  double damping = 0.01;
+  double gain = 0.5;
+  std::vector<double> rates{60.0, 1000.0, 10000.0};
+  bool rates_given = false;
+  double duration = 10.0;
+  double spin_us = 0.0;
+  bool realtime = false;
+  std::vector<std::string> sections;
+  bool json = false;
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+[[noreturn]] void usage(int code) {
+  std::FILE* f = code ? stderr : stdout;
+  std::fprintf(f,
+               "usage: ibvs-bench [options]\n"
+               "  --iterations N     timed calls per case (default 100000)\n"
+               "  --warmup N         untimed calls first (default iterations/10, >= 1000)\n"
+               "  --layout L[,L..]   cartesian, polar, stacked, hybrid (alternate points cartesian/polar) or all\n"
+               "  --n N[,N..]        points (default: components 4, growth 4,8,16,32,64)\n"
+               "  --damping L        lambda of the damped cases (default 0.01; must be > 0)\n"
+               "  --gain G           gain (default 0.5)\n"
+               "  --paced R[,R..]    paced-loop rates in Hz (default 60,1000,10000); alone: paced section only\n"
+               "  --duration S       seconds per paced loop (default 10)\n"
+               "  --spin US          paced: sleep until US microseconds before each deadline, then spin (default 0)\n"
+               "  --realtime         paced: try SCHED_FIFO 80 and mlockall (needs CAP_SYS_NICE)\n"
+               "  --sections S[,S..] components, growth, paced (default all three)\n"
+               "  --json             one JSON line on stdout; the human table goes to stderr\n");
+  std::exit(code);
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
+  auto need = [&](int& i) -> std::string {
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "ibvs-bench: %s needs a value\n", argv[i]);
+      usage(2);
+    }
+    return argv[++i];
+  };
+  auto number = [](const std::string& s, const char* what) {
+    char* end = nullptr;
+    const double x = std::strtod(s.c_str(), &end);
+    if (end == s.c_str() || *end != '\0' || !std::isfinite(x)) {
+      std::fprintf(stderr, "ibvs-bench: %s: not a number: '%s'\n", what, s.c_str());
+      usage(2);
+    }
+    return x;
+  };
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help") usage(0);
+    else if (a == "--iterations") o.iterations = static_cast<long>(number(need(i), "--iterations"));
+    else if (a == "--warmup") o.warmup = static_cast<long>(number(need(i), "--warmup"));
+    else if (a == "--layout") { o.layouts = split(need(i)); o.layouts_given = true; }
+    else if (a == "--n") {
+      o.ns.clear();
+      for (const auto& s : split(need(i))) o.ns.push_back(static_cast<int>(number(s, "--n")));
+      o.ns_given = true;
+    } else if (a == "--damping") o.damping = number(need(i), "--damping");
+    else if (a == "--gain") o.gain = number(need(i), "--gain");
+    else if (a == "--paced") {
+      o.rates.clear();
+      for (const auto& s : split(need(i))) o.rates.push_back(number(s, "--paced"));
+      o.rates_given = true;
+    } else if (a == "--duration") o.duration = number(need(i), "--duration");
+    else if (a == "--spin") o.spin_us = number(need(i), "--spin");
+    else if (a == "--realtime") o.realtime = true;
+    else if (a == "--sections") o.sections = split(need(i));
+    else if (a == "--json") o.json = true;
+    else {
+      std::fprintf(stderr, "ibvs-bench: unknown option '%s'\n", a.c_str());
+      usage(2);
+    }
+  }
+  if (o.layouts.size() == 1 && o.layouts[0] == "all") o.layouts = {"cartesian", "polar", "stacked", "hybrid"};
+  if (o.layouts.empty()) o.layouts = {"cartesian", "polar", "stacked", "hybrid"};
+  for (const auto& l : o.layouts)
+    if (l != "cartesian" && l != "polar" && l != "stacked" && l != "hybrid") {
+      std::fprintf(stderr, "ibvs-bench: unknown layout '%s'\n", l.c_str());
+      usage(2);
+    }
+  for (int n : o.ns)
+    if (n < 1) {
+      std::fprintf(stderr, "ibvs-bench: --n must be >= 1\n");
+      usage(2);
+    }
+  if (o.iterations < 1 || !(o.damping > 0.0) || !(o.gain > 0.0) || !(o.duration > 0.0) || o.spin_us < 0.0) {
+    std::fprintf(stderr, "ibvs-bench: need iterations >= 1, damping > 0, gain > 0, duration > 0, spin >= 0\n");
+    usage(2);
+  }
+  for (double r : o.rates)
+    if (!(r > 0.0)) {
+      std::fprintf(stderr, "ibvs-bench: --paced rates must be > 0\n");
+      usage(2);
+    }
+  if (o.warmup < 0) o.warmup = std::max(1000L, o.iterations / 10);
+  if (o.sections.empty()) {
+    if (o.rates_given && !o.layouts_given && !o.ns_given) o.sections = {"paced"};
+    else o.sections = {"components", "growth", "paced"};
+  }
+  for (const auto& s : o.sections)
+    if (s != "components" && s != "growth" && s != "paced") {
+      std::fprintf(stderr, "ibvs-bench: unknown section '%s'\n", s.c_str());
+      usage(2);
+    }
+  return o;
+}
+
+bool has(const std::vector<std::string>& v, const char* s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+
+// ----------------------------------------------------------------- inputs --
+Layout make_layout(const std::string& kind, int n) {
+  if (kind == "cartesian") return Layout::cartesian(n);
+  if (kind == "polar") return Layout::polar(n);
+  if (kind == "stacked") return Layout::stacked(n);
+  std::vector<ibvs::Block> blocks;
+  for (int i = 0; i < n; ++i)
+    blocks.push_back({i, i % 2 ? ibvs::Representation::polar : ibvs::Representation::cartesian});
+  return Layout(std::move(blocks), n);
+}
+
+Kind kind_of(const std::string& s) {
+  return s == "cartesian" ? Kind::cartesian : s == "polar" ? Kind::polar : s == "stacked" ? Kind::stacked : Kind::hybrid;
+}
+
+/// A ring of frames: desired points on a circle of radius 0.2 (normalised
+/// coordinates), current ones rotated, scaled and shifted by a random amount
+/// per frame, depths in [0.7, 1.3] m. No point comes near the principal point.
+struct Frames {
+  static constexpr int count = 64;
+  std::vector<Points> uv, uvd;
+  std::vector<Eigen::VectorXd> z, zd;
+
+  explicit Frames(int n, unsigned seed = 7) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    for (int k = 0; k < count; ++k) {
+      Points d(2, n), c(2, n);
+      Eigen::VectorXd depth(n), depth_d(n);
+      const double rot = 0.6 * U(rng), scale = 1.0 + 0.2 * U(rng), tx = 0.03 * U(rng), ty = 0.03 * U(rng);
+      for (int i = 0; i < n; ++i) {
+        const double a = 2.0 * ibvs::pi * (i + 0.5) / n;
+        d(0, i) = 0.2 * std::cos(a);
+        d(1, i) = 0.2 * std::sin(a);
+        c(0, i) = scale * 0.2 * std::cos(a + rot) + tx + 0.005 * U(rng);
+        c(1, i) = scale * 0.2 * std::sin(a + rot) + ty + 0.005 * U(rng);
+        depth(i) = 1.0 + 0.3 * U(rng);
+        depth_d(i) = 1.0;
+      }
+      uv.push_back(c);
+      uvd.push_back(d);
+      z.push_back(depth);
+      zd.push_back(depth_d);
+    }
+  }
+};
+
+// ------------------------------------------------------------------ stats --
+struct Result {
+  std::string section, name, layout, route;
+  int n = 0, rows = 0;
+  double damping = 0.0;
+  int diagnostics = -1;  // -1: not applicable
+  long iterations = 0;
+  double median_us = 0, p99_us = 0, max_us = 0, mean_us = 0, steps_per_s = 0;
+  double allocs_per_call = 0;
+};
+
+double percentile(std::vector<double>& sorted, double p) {
+  if (sorted.empty()) return 0.0;
+  const double idx = p * static_cast<double>(sorted.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(idx));
+  const auto hi = std::min(sorted.size() - 1, lo + 1);
+  return sorted[lo] + (idx - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
+}
+
+double g_timer_ns = 0.0;  // median cost of an empty timed region
+
+double measure_timer_overhead() {
+  std::vector<double> s(200000);
+  for (auto& x : s) {
+    const auto a = Clock::now();
+    keep(a);
+    const auto b = Clock::now();
+    x = ns_between(a, b);
+  }
+  std::sort(s.begin(), s.end());
+  return percentile(s, 0.5);
+}
+
+/// Times f(i) for i = 0..iterations-1: warm-up, batched mean, per-call stats.
+template <class F>
+void time_case(Result& r, const Options& o, F&& f) {
+  for (long i = 0; i < o.warmup; ++i) f(i);
+  const long a0 = g_allocations.load();
+  const auto t0 = Clock::now();
+  for (long i = 0; i < o.iterations; ++i) f(i);
+  const auto t1 = Clock::now();
+  const long a1 = g_allocations.load();
+  std::vector<double> s(static_cast<std::size_t>(o.iterations));
+  for (long i = 0; i < o.iterations; ++i) {
+    const auto a = Clock::now();
+    f(i);
+    const auto b = Clock::now();
+    s[static_cast<std::size_t>(i)] = std::max(0.0, ns_between(a, b) - g_timer_ns);
+  }
+  std::sort(s.begin(), s.end());
+  r.iterations = o.iterations;
+  r.mean_us = ns_between(t0, t1) / static_cast<double>(o.iterations) * 1e-3;
+  r.steps_per_s = r.mean_us > 0 ? 1e6 / r.mean_us : 0.0;
+  r.median_us = percentile(s, 0.5) * 1e-3;
+  r.p99_us = percentile(s, 0.99) * 1e-3;
+  r.max_us = s.back() * 1e-3;
+  r.allocs_per_call = static_cast<double>(a1 - a0) / static_cast<double>(o.iterations);
+}
+
+// -------------------------------------------------------------- the cases --
+std::vector<Result> g_results;
+
+ibvs::ServoOptions servo_options(double gain, double damping, bool diagnostics) {
+  ibvs::ServoOptions so;
+  so.gain = gain;
+  so.damping = damping;
+  so.diagnostics = diagnostics;
+  return so;
+}
+
+Result& add(const char* section, const char* name, const std::string& layout, int n, int rows, const char* route,
+            double damping, int diagnostics) {
+  Result r;
+  r.section = section;
+  r.name = name;
+  r.layout = layout;
+  r.n = n;
+  r.rows = rows;
+  r.route = route;
+  r.damping = damping;
+  r.diagnostics = diagnostics;
+  g_results.push_back(r);
+  return g_results.back();
+}
+
+void print_row(std::FILE* f, const Result& r);
+
+void bench_update(const char* section, const char* name, const std::string& kind, int n, double damping,
+                  bool diagnostics, const Options& o, const Frames& fr) {
+  const Layout layout = make_layout(kind, n);
+  ibvs::Servo servo(layout, servo_options(o.gain, damping, diagnostics));
+  ibvs::ServoOutput out(layout);
+  Result& r = add(section, name, kind, n, layout.rows(), damping > 0 ? "LLT" : "QR+SVD", damping, diagnostics);
+  time_case(r, o, [&](long i) {
+    const int k = static_cast<int>(i & (Frames::count - 1));
+    servo.update(fr.uv[k], fr.z[k], fr.uvd[k], fr.zd[k], out);
+    keep(out.velocity);
+  });
+}
+
+template <int Rows>
+void bench_solve(const std::string& kind, int n, const Options& o, const Frames& fr) {
+  const Layout layout = make_layout(kind, n);
+  const int m = layout.rows();
+  // J and e of every frame, computed once by the library.
+  std::vector<ibvs::MatrixX6> Js;
+  std::vector<Eigen::VectorXd> es;
+  for (int k = 0; k < Frames::count; ++k) {
+    Js.push_back(ibvs::jacobian(layout, fr.uv[k], fr.z[k]));
+    es.push_back(ibvs::feature_error(layout, ibvs::features(layout, fr.uv[k]), ibvs::features(layout, fr.uvd[k])));
+  }
+  ibvs_bench::SolveKernel<Rows> w(m);
+  auto load = [&](long i) {
+    const int k = static_cast<int>(i & (Frames::count - 1));
+    w.J.topRows(m) = Js[k];
+    w.e.head(m) = es[k];
+  };
+  {
+    Result& r = add("components", "solve damped (LLT)", kind, n, m, "LLT", o.damping, 0);
+    time_case(r, o, [&](long i) {
+      load(i);
+      keep(w.damped(o.damping));
+    });
+  }
+  {
+    Result& r = add("components", "diagnostics (eig J^T J)", kind, n, m, "eig", o.damping, 1);
+    time_case(r, o, [&](long i) {
+      load(i);
+      keep(w.diagnostics());
+    });
+  }
+  {
+    Result& r = add("components", "solve undamped (QR+SVD)", kind, n, m, "QR+SVD", 0.0, 1);
+    time_case(r, o, [&](long i) {
+      load(i);
+      keep(w.svd_route());
+    });
+  }
+  {
+    Result& r = add("components", "damped_pinv() API, allocating", kind, n, m, "JacobiSVD", o.damping, -1);
+    time_case(r, o, [&](long i) {
+      const int k = static_cast<int>(i & (Frames::count - 1));
+      const Eigen::Matrix<double, 6, Eigen::Dynamic> P = ibvs::damped_pinv(Js[k], o.damping);
+      const Twist x = -o.gain * (P * es[k]);
+      keep(x);
+    });
+  }
+}
+
+template <int NP, Kind K>
+void bench_floor(const std::string& kind, const Options& o, const Frames& fr) {
+  using F = ibvs_bench::Floor<NP, K>;
+  std::vector<typename F::Pts> uv, uvd;
+  std::vector<Eigen::Matrix<double, NP, 1>> z;
+  for (int k = 0; k < Frames::count; ++k) {
+    uv.emplace_back(fr.uv[k]);
+    uvd.emplace_back(fr.uvd[k]);
+    z.emplace_back(fr.z[k]);
+  }
+  {
+    Result& r = add("components", "Eigen floor: fixed-size LLT step", kind, NP, F::M, "LLT", o.damping, 0);
+    time_case(r, o, [&](long i) {
+      const int k = static_cast<int>(i & (Frames::count - 1));
+      keep(F::step_llt(uv[k], z[k], uvd[k], o.damping, o.gain));
+    });
+  }
+  {
+    Result& r = add("components", "Eigen fixed-size JacobiSVD step", kind, NP, F::M, "JacobiSVD", o.damping, 0);
+    time_case(r, o, [&](long i) {
+      const int k = static_cast<int>(i & (Frames::count - 1));
+      keep(F::step_svd(uv[k], z[k], uvd[k], o.damping, o.gain));
+    });
+  }
+}
+
+void check_floor_agrees(const std::string& kind, const Options& o, const Frames& fr);
+
+void bench_components(const std::string& kind, int n, const Options& o) {
+  const Frames fr(n);
+  const Layout layout = make_layout(kind, n);
+  const int m = layout.rows();
+  ibvs::MatrixX6 J = ibvs::MatrixX6::Zero(m, 6);
+  Eigen::VectorXd f(m), fd(m), e(m);
+  {
+    Result& r = add("components", "jacobian (stacked_jacobian)", kind, n, m, "-", 0.0, -1);
+    time_case(r, o, [&](long i) {
+      const int k = static_cast<int>(i & (Frames::count - 1));
+      ibvs::stacked_jacobian(layout, fr.uv[k], fr.z[k], J);
+      keep(J(0, 0));
+    });
+  }
+  {
+    Result& r = add("components", "error (features + wrapped error)", kind, n, m, "-", 0.0, -1);
+    time_case(r, o, [&](long i) {
+      const int k = static_cast<int>(i & (Frames::count - 1));
+      ibvs::stacked_features(layout, fr.uv[k], f);
+      ibvs::stacked_features(layout, fr.uvd[k], fd);
+      ibvs::stacked_error(layout, f, fd, e);
+      keep(e(0));
+    });
+  }
+  if (m == 8) bench_solve<8>(kind, n, o, fr);
+  else if (m == 16) bench_solve<16>(kind, n, o, fr);
+  else bench_solve<Eigen::Dynamic>(kind, n, o, fr);
+  bench_update("components", "Servo::update damped", kind, n, o.damping, false, o, fr);
+  bench_update("components", "Servo::update damped + diagnostics", kind, n, o.damping, true, o, fr);
+  bench_update("components", "Servo::update undamped (SVD)", kind, n, 0.0, true, o, fr);
+  if (n == 4) {
+    check_floor_agrees(kind, o, fr);
+    switch (kind_of(kind)) {
+      case Kind::cartesian: bench_floor<4, Kind::cartesian>(kind, o, fr); break;
+      case Kind::polar: bench_floor<4, Kind::polar>(kind, o, fr); break;
+      case Kind::stacked: bench_floor<4, Kind::stacked>(kind, o, fr); break;
+      case Kind::hybrid: bench_floor<4, Kind::hybrid>(kind, o, fr); break;
+    }
+  }
+}
+
+/// The floor must compute the same twist as Servo::update, or it is no floor.
+template <Kind K>
+double floor_difference(const std::string& kind, const Options& o, const Frames& fr) {
+  using F = ibvs_bench::Floor<4, K>;
+  const Layout layout = make_layout(kind, 4);
+  ibvs::Servo servo(layout, servo_options(o.gain, o.damping, false));
+  ibvs::ServoOutput out(layout);
+  double worst = 0.0;
+  for (int k = 0; k < Frames::count; ++k) {
+    servo.update(fr.uv[k], fr.z[k], fr.uvd[k], fr.zd[k], out);
+    const Twist a = F::step_llt(fr.uv[k], fr.z[k], fr.uvd[k], o.damping, o.gain);
+    const Twist b = F::step_svd(fr.uv[k], fr.z[k], fr.uvd[k], o.damping, o.gain);
+    worst = std::max({worst, (a - out.velocity).norm() / out.velocity.norm(),
+                      (b - out.velocity).norm() / out.velocity.norm()});
+  }
+  return worst;
+}
+
+void check_floor_agrees(const std::string& kind, const Options& o, const Frames& fr) {
+  double d = 0.0;
+  switch (kind_of(kind)) {
+    case Kind::cartesian: d = floor_difference<Kind::cartesian>(kind, o, fr); break;
+    case Kind::polar: d = floor_difference<Kind::polar>(kind, o, fr); break;
+    case Kind::stacked: d = floor_difference<Kind::stacked>(kind, o, fr); break;
+    case Kind::hybrid: d = floor_difference<Kind::hybrid>(kind, o, fr); break;
+  }
+  if (!(d < 1e-9)) {
+    std::fprintf(stderr, "ibvs-bench: the floor kernel disagrees with Servo::update for %s(4): %g\n", kind.c_str(), d);
+    std::exit(1);
+  }
+}
+
+// ---------------------------------------------------------------- paced ---
+struct Paced {
+  double rate_hz = 0, duration_s = 0, spin_us = 0;
+  std::string layout;
+  int n = 0;
+  bool diagnostics = true;
+  bool realtime = false;
+  long steps = 0, misses = 0;
+  double late_median_us = 0, late_p99_us = 0, late_max_us = 0;
+  double step_median_us = 0, step_p99_us = 0, step_max_us = 0;
+};
+std::vector<Paced> g_paced;
+
+#if defined(__linux__)
+timespec to_timespec(std::int64_t ns) {
+  timespec ts;
+  ts.tv_sec = static_cast<time_t>(ns / 1000000000);
+  ts.tv_nsec = static_cast<long>(ns % 1000000000);
+  return ts;
+}
+std::int64_t mono_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+void sleep_until_ns(std::int64_t t) {
+  const timespec ts = to_timespec(t);
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+#else
+std::int64_t mono_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+void sleep_until_ns(std::int64_t t) {
+  std::this_thread::sleep_until(Clock::time_point(std::chrono::nanoseconds(t)));
+}
+#endif
+
+/// A control loop released at absolute deadlines t0 + k T (no drift):
+/// lateness = wake-up time - release time; a deadline miss = a step that ends
+/// after the next release (then the loop skips to the next future release,
+/// counting every skipped period as a miss too).
+void bench_paced(double rate, const Options& o, bool realtime) {
+  const std::string kind = "stacked";
+  const int n = 4;
+  const Frames fr(n);
+  const Layout layout = make_layout(kind, n);
+  ibvs::Servo servo(layout, servo_options(o.gain, o.damping, true));
+  ibvs::ServoOutput out(layout);
+  const auto period = static_cast<std::int64_t>(std::llround(1e9 / rate));
+  const auto spin = static_cast<std::int64_t>(o.spin_us * 1e3);
+  const long planned = std::max(1L, static_cast<long>(std::llround(o.duration * rate)));
+  std::vector<double> late, step;
+  late.reserve(static_cast<std::size_t>(planned));
+  step.reserve(static_cast<std::size_t>(planned));
+  Paced p;
+  p.rate_hz = rate;
+  p.duration_s = o.duration;
+  p.spin_us = o.spin_us;
+  p.layout = kind;
+  p.n = n;
+  p.realtime = realtime;
+  std::int64_t release = mono_ns() + period;
+  long k = 0;
+  for (long s = 0; s < planned; ++s) {
+    if (spin > 0) {
+      sleep_until_ns(release - spin);
+      while (mono_ns() < release) {
+      }
+    } else {
+      sleep_until_ns(release);
+    }
+    const std::int64_t woke = mono_ns();
+    const int f = static_cast<int>(k++ & (Frames::count - 1));
+    servo.update(fr.uv[f], fr.z[f], fr.uvd[f], fr.zd[f], out);
+    keep(out.velocity);
+    const std::int64_t done = mono_ns();
+    late.push_back(static_cast<double>(woke - release) * 1e-3);
+    step.push_back(static_cast<double>(done - woke) * 1e-3);
+    std::int64_t next = release + period;
+    if (done > next) {
+      ++p.misses;
+      const std::int64_t skipped = (done - next) / period;  // releases already past as well
+      p.misses += skipped;
+      s += skipped;
+      next += (skipped + 1) * period;
+    }
+    release = next;
+  }
+  p.steps = static_cast<long>(step.size());
+  std::sort(late.begin(), late.end());
+  std::sort(step.begin(), step.end());
+  p.late_median_us = percentile(late, 0.5);
+  p.late_p99_us = percentile(late, 0.99);
+  p.late_max_us = late.back();
+  p.step_median_us = percentile(step, 0.5);
+  p.step_p99_us = percentile(step, 0.99);
+  p.step_max_us = step.back();
+  g_paced.push_back(p);
+}
+
+bool try_realtime() {
+#if defined(__linux__)
+  sched_param sp{};
+  sp.sched_priority = 80;
+  const bool fifo = sched_setscheduler(0, SCHED_FIFO, &sp) == 0;
+  if (!fifo) std::fprintf(stderr, "ibvs-bench: SCHED_FIFO refused (%s); running at normal priority\n", std::strerror(errno));
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+    std::fprintf(stderr, "ibvs-bench: mlockall refused (%s)\n", std::strerror(errno));
+  return fifo;
+#else
+  return false;
+#endif
+}
+
+// ---------------------------------------------------------------- output ---
+std::string cpu_model() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("model name", 0) == 0) {
+      const auto c = line.find(':');
+      if (c != std::string::npos) return line.substr(c + 2);
+    }
+  return "unknown";
+}
+
+std::string json_escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    o += c;
+  }
+  return o;
+}
+
+void print_row(std::FILE* f, const Result& r) {
+  char what[48];
+  std::snprintf(what, sizeof what, "%s(%d) %dx6", r.layout.c_str(), r.n, r.rows);
+  std::fprintf(f, "  %-36s %-20s %9.3f %9.3f %9.2f %9.3f %12.0f %7.2g\n", r.name.c_str(), what, r.median_us, r.p99_us,
+               r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call);
+}
+
+void print_header(std::FILE* f, const char* title) {
+  std::fprintf(f, "\n%s\n  %-36s %-20s %9s %9s %9s %9s %12s %7s\n", title, "case", "layout", "median", "p99", "max",
+               "mean", "steps/s", "allocs");
+  std::fprintf(f, "  %-36s %-20s %9s %9s %9s %9s %12s %7s\n", "", "", "us", "us", "us", "us", "", "/call");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Options o = parse(argc, argv);
+  std::FILE* table = o.json ? stderr : stdout;
+#if defined(__linux__)
+  prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);  // 1 ns instead of the default 50 us
+#endif
+  g_timer_ns = measure_timer_overhead();
+  std::fprintf(table, "ibvs-bench %s | %s | Eigen %d.%d.%d | %s | steady_clock cost %.1f ns (subtracted)\n",
+               IBVS_VERSION, cpu_model().c_str(), EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION,
+#if defined(__clang__)
+               "clang " __clang_version__,
+#elif defined(__GNUC__)
+               "gcc " __VERSION__,
+#else
+               "unknown compiler",
+#endif
+               g_timer_ns);
+  std::fprintf(table, "iterations %ld (warm-up %ld), damping %g, gain %g; times per call in microseconds\n",
+               o.iterations, o.warmup, o.damping, o.gain);
+
+  if (has(o.sections, "components")) {
+    const std::vector<int> ns = o.ns_given ? o.ns : std::vector<int>{4};
+    print_header(table, "Components and whole step (N points; the floor is fixed-size Eigen written directly)");
+    for (int n : ns)
+      for (const auto& kind : o.layouts) {
+        const std::size_t first = g_results.size();
+        bench_components(kind, n, o);
+        for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
+        std::fflush(table);
+      }
+  }
+  if (has(o.sections, "growth")) {
+    const std::vector<int> ns = o.ns_given ? o.ns : std::vector<int>{4, 8, 16, 32, 64};
+    print_header(table, "Cost growth: Servo::update (damped = LLT, diagnostics off; undamped = QR+SVD)");
+    for (const auto& kind : o.layouts)
+      for (int n : ns) {
+        const Frames fr(n);
+        bench_update("growth", "Servo::update damped", kind, n, o.damping, false, o, fr);
+        print_row(table, g_results.back());
+        bench_update("growth", "Servo::update undamped (SVD)", kind, n, 0.0, true, o, fr);
+        print_row(table, g_results.back());
+        std::fflush(table);
+      }
+  }
+  if (has(o.sections, "paced")) {
+    const bool rt = o.realtime && try_realtime();
+    std::fprintf(table,
+                 "\nPaced loops: Servo::update stacked(4) damped + diagnostics, released at absolute deadlines "
+                 "(clock_nanosleep TIMER_ABSTIME%s%s)\n",
+                 o.spin_us > 0 ? ", then spin" : "", rt ? ", SCHED_FIFO 80" : ", normal priority");
+    std::fprintf(table, "  %8s %9s %9s %7s %12s %12s %12s %10s %10s %10s\n", "rate Hz", "duration", "steps", "misses",
+                 "late med us", "late p99 us", "late max us", "step med", "step p99", "step max");
+    for (double rate : o.rates) {
+      bench_paced(rate, o, rt);
+      const Paced& p = g_paced.back();
+      std::fprintf(table, "  %8g %8gs %9ld %7ld %12.1f %12.1f %12.1f %10.3f %10.3f %10.2f\n", p.rate_hz, p.duration_s,
+                   p.steps, p.misses, p.late_median_us, p.late_p99_us, p.late_max_us, p.step_median_us, p.step_p99_us,
+                   p.step_max_us);
+      std::fflush(table);
+    }
+  }
+
+  if (o.json) {
+    std::string s = "{\"benchmark\":\"ibvs-bench\",\"version\":\"" IBVS_VERSION "\",\"cpu\":\"" +
+                    json_escape(cpu_model()) + "\",\"timer_overhead_ns\":" + std::to_string(g_timer_ns) +
+                    ",\"iterations\":" + std::to_string(o.iterations) + ",\"cases\":[";
+    char buf[640];
+    for (std::size_t i = 0; i < g_results.size(); ++i) {
+      const Result& r = g_results[i];
+      std::snprintf(buf, sizeof buf,
+                    "%s{\"section\":\"%s\",\"name\":\"%s\",\"layout\":\"%s\",\"n\":%d,\"rows\":%d,\"route\":\"%s\","
+                    "\"damping\":%g,\"diagnostics\":%s,\"iterations\":%ld,\"median_us\":%.4f,\"p99_us\":%.4f,"
+                    "\"max_us\":%.3f,\"mean_us\":%.4f,\"steps_per_s\":%.0f,\"allocs_per_call\":%g}",
+                    i ? "," : "", r.section.c_str(), json_escape(r.name).c_str(), r.layout.c_str(), r.n, r.rows,
+                    r.route.c_str(), r.damping,
+                    r.diagnostics < 0 ? "null" : (r.diagnostics ? "true" : "false"), r.iterations, r.median_us,
+                    r.p99_us, r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call);
+      s += buf;
+    }
+    s += "],\"paced\":[";
+    for (std::size_t i = 0; i < g_paced.size(); ++i) {
+      const Paced& p = g_paced[i];
+      std::snprintf(buf, sizeof buf,
+                    "%s{\"rate_hz\":%g,\"duration_s\":%g,\"layout\":\"%s\",\"n\":%d,\"spin_us\":%g,\"realtime\":%s,"
+                    "\"steps\":%ld,\"misses\":%ld,\"lateness_median_us\":%.2f,\"lateness_p99_us\":%.2f,"
+                    "\"lateness_max_us\":%.2f,\"step_median_us\":%.4f,\"step_p99_us\":%.4f,\"step_max_us\":%.3f}",
+                    i ? "," : "", p.rate_hz, p.duration_s, p.layout.c_str(), p.n, p.spin_us,
+                    p.realtime ? "true" : "false", p.steps, p.misses, p.late_median_us, p.late_p99_us,
+                    p.late_max_us, p.step_median_us, p.step_p99_us, p.step_max_us);
+      s += buf;
+    }
+    s += "]}";
+    std::printf("%s\n", s.c_str());
+  }
+  return 0;
+}

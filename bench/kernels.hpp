@@ -1,0 +1,170 @@
+// Benchmark kernels that are not public library API: the solve routes of
+// Servo::update isolated on a given J and e (they mirror Work::solve in
+// cpp/src/servo.cpp, so that "pseudoinverse alone" can be timed), and the
+// Eigen "floor": one whole fixed-size damped step written directly, the
+// bound Servo::update is compared against.
+#pragma once
+
+#include "ibvs/features.hpp"
+#include "ibvs/pinv.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+
+namespace ibvs_bench {
+
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+using ibvs::Twist;
+
+/// The solve routes of cpp/src/servo.cpp (Work::solve), on a J and e already
+/// assembled. Rows = 8, 16 (fixed, stack storage) or Eigen::Dynamic.
+template <int Rows>
+struct SolveKernel {
+  using Jac = Eigen::Matrix<double, Rows, 6>;
+  using Vec = Eigen::Matrix<double, Rows, 1>;
+
+  explicit SolveKernel(Eigen::Index m)
+      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
+        e(Vec::Zero(J.rows())),
+        qte(J.rows()),
+        qr(J.rows(), 6),
+        svd(6, 6, Eigen::ComputeFullU | Eigen::ComputeFullV),
+        m_(m) {}
+
+  Jac J;
+  Vec e;
+  Vec qte;
+  Matrix6 A;
+  Eigen::LLT<Matrix6> llt;
+  Eigen::SelfAdjointEigenSolver<Matrix6> eig;
+  Eigen::HouseholderQR<Jac> qr;
+  Eigen::JacobiSVD<Matrix6> svd;
+  Eigen::Index m_;
+
+  /// Damped route: Cholesky of the 6x6 normal equations (J^T J + l^2 I) x = J^T e.
+  Twist damped(double lambda) noexcept {
+    A.noalias() = J.transpose().lazyProduct(J);
+    A.diagonal().array() += lambda * lambda;
+    llt.compute(A);
+    Twist x;
+    x.noalias() = J.transpose().lazyProduct(e);
+    llt.solveInPlace(x);
+    return x;
+  }
+
+  /// Diagnostics of the damped route: sigma_min, sigma_max from eig(J^T J).
+  Eigen::Vector2d diagnostics() noexcept {
+    A.noalias() = J.transpose().lazyProduct(J);
+    eig.compute(A, Eigen::EigenvaluesOnly);
+    return {std::sqrt(std::max(eig.eigenvalues()(0), 0.0)), std::sqrt(std::max(eig.eigenvalues()(5), 0.0))};
+  }
+
+  /// Undamped route: QR of J, SVD of the 6x6 R, Moore-Penrose with rank cut.
+  Twist svd_route() noexcept {
+    qr.compute(J);
+    const Matrix6 R = qr.matrixQR().template topRows<6>().template triangularView<Eigen::Upper>();
+    svd.compute(R);
+    qte = e;
+    qte.applyOnTheLeft(qr.householderQ().transpose());
+    const auto& s = svd.singularValues();
+    const double tol = ibvs::rank_tolerance(m_, s(0));
+    Twist y = svd.matrixU().transpose() * qte.template head<6>();
+    for (int i = 0; i < 6; ++i) y(i) *= ibvs::pinv_factor(s(i), 0.0, tol);
+    Twist x;
+    x.noalias() = svd.matrixV() * y;
+    return x;
+  }
+};
+
+/// Which representation point i gets in the floor kernels (one entry per
+/// block, row order as ibvs::Layout::cartesian/polar/stacked and "hybrid").
+enum class Kind { cartesian, polar, stacked, hybrid };
+
+constexpr int rows_per_point(Kind k) { return k == Kind::stacked ? 4 : 2; }
+
+/// The Eigen floor: one whole damped step (Jacobian + error + damped normal
+/// equations by LLT + twist) for NP points, all fixed-size, written directly,
+/// each point's r and theta computed once. No validation, no r -> 0 policy,
+/// no outputs besides the twist: the least a correct step must do.
+template <int NP, Kind K>
+struct Floor {
+  static constexpr int M = NP * rows_per_point(K);
+  using Pts = Eigen::Matrix<double, 2, NP>;
+  using Jac = Eigen::Matrix<double, M, 6>;
+
+  static void polar_block(double u, double v, double z, double ud, double vd, Jac& J, Eigen::Matrix<double, M, 1>& e,
+                          int row) noexcept {
+    const double r2 = u * u + v * v, r = std::sqrt(r2), ir = 1.0 / r, iz = 1.0 / z;
+    const double c = u * ir, s = v * ir, k = 1.0 + r2;
+    J.row(row) << -c * iz, -s * iz, r * iz, k * s, -k * c, 0.0;
+    J.row(row + 1) << s * ir * iz, -c * ir * iz, 0.0, c * ir, s * ir, -1.0;
+    e(row) = r - std::sqrt(ud * ud + vd * vd);
+    double d = std::atan2(v, u) - std::atan2(vd, ud);  // in (-2 pi, 2 pi)
+    if (d > ibvs::pi) d -= 2.0 * ibvs::pi;
+    else if (d <= -ibvs::pi) d += 2.0 * ibvs::pi;
+    e(row + 1) = d;
+  }
+  static void cartesian_block(double u, double v, double z, double ud, double vd, Jac& J,
+                              Eigen::Matrix<double, M, 1>& e, int row) noexcept {
+    const double iz = 1.0 / z;
+    J.row(row) << -iz, 0.0, u * iz, u * v, -(1.0 + u * u), v;
+    J.row(row + 1) << 0.0, -iz, v * iz, 1.0 + v * v, -u * v, -u;
+    e(row) = u - ud;
+    e(row + 1) = v - vd;
+  }
+
+  /// Fills J and e (shared by the LLT and the JacobiSVD floors).
+  static void assemble(const Pts& uv, const Eigen::Matrix<double, NP, 1>& z, const Pts& uvd, Jac& J,
+                       Eigen::Matrix<double, M, 1>& e) noexcept {
+    int row = 0;
+    for (int i = 0; i < NP; ++i) {
+      const double u = uv(0, i), v = uv(1, i), ud = uvd(0, i), vd = uvd(1, i);
+      const bool cart = K == Kind::cartesian || K == Kind::stacked || (K == Kind::hybrid && i % 2 == 0);
+      const bool pol = K == Kind::polar || K == Kind::stacked || (K == Kind::hybrid && i % 2 == 1);
+      if (cart) {
+        cartesian_block(u, v, z(i), ud, vd, J, e, row);
+        row += 2;
+      }
+      if (pol) {
+        polar_block(u, v, z(i), ud, vd, J, e, row);
+        row += 2;
+      }
+    }
+  }
+
+  static Twist step_llt(const Pts& uv, const Eigen::Matrix<double, NP, 1>& z, const Pts& uvd, double lambda,
+                        double gain) noexcept {
+    Jac J;
+    Eigen::Matrix<double, M, 1> e;
+    assemble(uv, z, uvd, J, e);
+    Matrix6 A;
+    A.noalias() = J.transpose().lazyProduct(J);
+    A.diagonal().array() += lambda * lambda;
+    Twist b;
+    b.noalias() = J.transpose().lazyProduct(e);
+    Eigen::LLT<Matrix6> llt(A);
+    llt.solveInPlace(b);
+    return -gain * b;
+  }
+
+  /// The "Eigen fixed-size, JacobiSVD damped" reference row.
+  static Twist step_svd(const Pts& uv, const Eigen::Matrix<double, NP, 1>& z, const Pts& uvd, double lambda,
+                        double gain) noexcept {
+    Jac J;
+    Eigen::Matrix<double, M, 1> e;
+    assemble(uv, z, uvd, J, e);
+    Eigen::JacobiSVD<Jac> svd(J, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const auto& s = svd.singularValues();
+    Twist y = svd.matrixU().template leftCols<6>().transpose() * e;
+    for (int i = 0; i < 6; ++i) y(i) *= s(i) / (s(i) * s(i) + lambda * lambda);
+    return -gain * (svd.matrixV() * y);
+  }
+};
+
+}  // namespace ibvs_bench
