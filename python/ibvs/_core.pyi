@@ -1,0 +1,103 @@
+"""Type stubs of the native module ibvs._core (the control-law core)."""
+
+from __future__ import annotations
+
+import enum
+from typing import Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+Depth = Union[float, npt.ArrayLike]
+
+class Representation(enum.Enum):
+    cartesian = 0
+    polar = 1
+
+class Status(enum.Enum):
+    ok = 0
+    singular = 1
+    invalid_input = -1
+
+class Layout:
+    def __init__(
+        self, blocks: Sequence[Tuple[int, Union[str, Representation]]], n_points: int | None = None
+    ) -> None: ...
+    @staticmethod
+    def cartesian(n: int) -> Layout: ...
+    @staticmethod
+    def polar(n: int) -> Layout: ...
+    @staticmethod
+    def stacked(n: int) -> Layout: ...
+    @property
+    def rows(self) -> int: ...
+    @property
+    def n_points(self) -> int: ...
+    @property
+    def blocks(self) -> list[tuple[int, str]]: ...
+    def __eq__(self, other: object) -> bool: ...
+    def __hash__(self) -> int: ...
+
+def features(uv: ArrayLike, layout: Layout) -> FloatArray:
+    """(M,) stacked features of uv (N, 2)."""
+
+def jacobian(uv: ArrayLike, depth: Depth, layout: Layout, polar_min_radius: float = 1e-3) -> FloatArray:
+    """(M, 6) stacked image Jacobian."""
+
+def feature_error(f: ArrayLike, f_desired: ArrayLike, layout: Layout) -> FloatArray:
+    """(M,) f (-) f*, theta rows wrapped into (-pi, pi]."""
+
+def damped_pinv(J: ArrayLike, damping: float = 0.0) -> FloatArray:
+    """(6, M) pseudoinverse of J (M, 6)."""
+
+def singular_values(J: ArrayLike) -> FloatArray: ...
+def wrap_angle(angle: Union[float, ArrayLike]) -> Union[float, FloatArray]: ...
+def se3_exp(twist: ArrayLike) -> FloatArray:
+    """(4, 4) rigid motion of a twist applied for unit time."""
+
+class ServoResult:
+    @property
+    def status(self) -> Status: ...
+    @property
+    def velocity(self) -> FloatArray:
+        """(6,) camera twist: Tx, Ty, Tz (m/s), wx, wy, wz (rad/s)."""
+    @property
+    def error(self) -> FloatArray: ...
+    @property
+    def error_norm(self) -> float: ...
+    @property
+    def jacobian(self) -> FloatArray: ...
+    @property
+    def sigma_min(self) -> float: ...
+    @property
+    def sigma_max(self) -> float: ...
+    @property
+    def condition(self) -> float: ...
+    @property
+    def polar_fallbacks(self) -> int: ...
+
+class Servo:
+    gain: float
+    damping: float
+    def __init__(
+        self,
+        layout: Layout,
+        gain: float,
+        damping: float = 0.0,
+        jacobian: str = "current",
+        polar_min_radius: float = 1e-3,
+        diagnostics: bool = True,
+    ) -> None: ...
+    def update(
+        self, uv: ArrayLike, depth: Depth, uv_desired: ArrayLike, depth_desired: Depth | None = None
+    ) -> ServoResult: ...
+    @property
+    def layout(self) -> Layout: ...
+    @property
+    def jacobian_mode(self) -> str: ...
+    @property
+    def polar_min_radius(self) -> float: ...
