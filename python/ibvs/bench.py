@@ -1,0 +1,249 @@
+"""Benchmark of the control step through the bindings, next to numpy.
+
+``python -m ibvs.bench [--iterations N] [--n N] [--json]``
+
+For the Cartesian (2N x 6), polar (2N x 6) and stacked hybrid (4N x 6)
+layouts, one damped step v = -gain (J^T J + lambda^2 I)^-1 J^T e is timed two
+ways in the same process: ``ibvs.Servo.update`` (C++/Eigen through pybind11)
+and a pure-numpy vectorised implementation of the same step. Both are first
+checked to give the same twist (a RuntimeError says otherwise). Each case is
+warmed up, then timed call by call with ``time.perf_counter_ns`` (the timer's
+own median cost subtracted): median, p99 and max in microseconds, and calls/s
+from a batched loop. A few binding baselines show where the time of a call goes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import sys
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+import ibvs
+
+__all__ = ["main", "numpy_step", "make_frames"]
+
+LAYOUTS = ("cartesian", "polar", "stacked")
+FRAMES = 64
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """Angles into (-pi, pi] (as ibvs.wrap_angle)."""
+    w = np.remainder(a + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
+
+
+def numpy_step(uv: np.ndarray, z: np.ndarray, uv_desired: np.ndarray, kind: str, damping: float,
+               gain: float) -> np.ndarray:
+    """One damped IBVS step in vectorised numpy (the reference the C++ is compared to).
+
+    uv, uv_desired (N, 2); z (N,); kind "cartesian", "polar" or "stacked". Returns the twist (6,).
+    """
+    u, v = uv[:, 0], uv[:, 1]
+    iz = 1.0 / z
+    zero = np.zeros_like(u)
+    blocks = []
+    errors = []
+    if kind in ("cartesian", "stacked"):
+        jc = np.stack([
+            np.stack([-iz, zero, u * iz, u * v, -(1.0 + u * u), v], axis=-1),
+            np.stack([zero, -iz, v * iz, 1.0 + v * v, -u * v, -u], axis=-1),
+        ], axis=1)  # (N, 2, 6)
+        blocks.append(jc)
+        errors.append(uv - uv_desired)  # (N, 2)
+    if kind in ("polar", "stacked"):
+        r = np.hypot(u, v)
+        c, s, ir = u / r, v / r, 1.0 / r
+        k = 1.0 + r * r
+        jp = np.stack([
+            np.stack([-c * iz, -s * iz, r * iz, k * s, -k * c, zero], axis=-1),
+            np.stack([s * ir * iz, -c * ir * iz, zero, c * ir, s * ir, zero - 1.0], axis=-1),
+        ], axis=1)
+        blocks.append(jp)
+        ud, vd = uv_desired[:, 0], uv_desired[:, 1]
+        errors.append(np.stack([r - np.hypot(ud, vd), _wrap(np.arctan2(v, u) - np.arctan2(vd, ud))], axis=-1))
+    J = np.concatenate(blocks, axis=1).reshape(-1, 6)  # per point: its blocks in row order
+    e = np.concatenate(errors, axis=1).reshape(-1)
+    A = J.T @ J
+    A[np.diag_indices(6)] += damping * damping
+    return -gain * np.linalg.solve(A, J.T @ e)
+
+
+def make_frames(n: int, count: int = FRAMES, seed: int = 7) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(uv, depth, uv_desired) frames: desired points on a circle of radius 0.2, current ones
+    rotated, scaled and shifted at random, depths in [0.7, 1.3] m (as ibvs-bench)."""
+    rng = np.random.default_rng(seed)
+    a = 2.0 * np.pi * (np.arange(n) + 0.5) / n
+    desired = np.ascontiguousarray(0.2 * np.stack([np.cos(a), np.sin(a)], axis=1))
+    frames = []
+    for _ in range(count):
+        rot, scale = 0.6 * rng.uniform(-1, 1), 1.0 + 0.2 * rng.uniform(-1, 1)
+        t = 0.03 * rng.uniform(-1, 1, 2)
+        cur = scale * 0.2 * np.stack([np.cos(a + rot), np.sin(a + rot)], axis=1) + t
+        cur = np.ascontiguousarray(cur + 0.005 * rng.uniform(-1, 1, (n, 2)))
+        z = np.ascontiguousarray(1.0 + 0.3 * rng.uniform(-1, 1, n))
+        frames.append((cur, z, desired.copy()))
+    return frames
+
+
+def _layout(kind: str, n: int) -> ibvs.Layout:
+    return {"cartesian": ibvs.Layout.cartesian, "polar": ibvs.Layout.polar, "stacked": ibvs.Layout.stacked}[kind](n)
+
+
+def _timer_overhead_ns() -> float:
+    clock = time.perf_counter_ns
+    s = []
+    for _ in range(20000):
+        a = clock()
+        s.append(clock() - a)
+    return float(np.median(s))
+
+
+def _time(fn: Callable[[int], Any], iterations: int, warmup: int, overhead_ns: float) -> dict[str, float]:
+    """Warm-up, batched mean, then per-call median/p99/max (us)."""
+    mask = FRAMES - 1
+    for i in range(warmup):
+        fn(i & mask)
+    clock = time.perf_counter_ns
+    t0 = clock()
+    for i in range(iterations):
+        fn(i & mask)
+    mean_ns = (clock() - t0) / iterations
+    samples = np.empty(iterations)
+    for i in range(iterations):
+        a = clock()
+        fn(i & mask)
+        samples[i] = clock() - a
+    samples = np.maximum(samples - overhead_ns, 0.0) * 1e-3
+    return {
+        "median_us": float(np.median(samples)),
+        "p99_us": float(np.percentile(samples, 99)),
+        "max_us": float(samples.max()),
+        "mean_us": mean_ns * 1e-3,
+        "calls_per_s": 1e9 / mean_ns if mean_ns > 0 else math.inf,
+    }
+
+
+def check_agreement(kind: str, n: int, damping: float, gain: float, frames=None) -> float:
+    """Largest relative twist difference between ibvs.Servo and numpy_step; raises if > 1e-9."""
+    frames = frames or make_frames(n)
+    servo = ibvs.Servo(_layout(kind, n), gain=gain, damping=damping, diagnostics=False)
+    worst = 0.0
+    for uv, z, uvd in frames:
+        a = servo.update(uv, z, uvd).velocity
+        b = numpy_step(uv, z, uvd, kind, damping, gain)
+        worst = max(worst, float(np.linalg.norm(a - b) / np.linalg.norm(b)))
+    if not worst <= 1e-9:
+        raise RuntimeError(f"ibvs.Servo and the numpy step disagree for {kind}({n}): relative difference {worst:.3g}")
+    return worst
+
+
+def run(iterations: int = 20000, n: int = 4, damping: float = 0.01, gain: float = 0.5,
+        warmup: int | None = None) -> dict[str, Any]:
+    """Runs every case; returns the results as a dict (what --json prints)."""
+    warmup = max(200, iterations // 10) if warmup is None else warmup
+    overhead = _timer_overhead_ns()
+    frames = make_frames(n)
+    cases: list[dict[str, Any]] = []
+
+    def add(name: str, kind: str, rows: int, fn: Callable[[int], Any], **extra: Any) -> dict[str, Any]:
+        r = {"name": name, "layout": kind, "n": n, "rows": rows, **extra, **_time(fn, iterations, warmup, overhead)}
+        cases.append(r)
+        return r
+
+    for kind in LAYOUTS:
+        layout = _layout(kind, n)
+        difference = check_agreement(kind, n, damping, gain, frames)
+        servo = ibvs.Servo(layout, gain=gain, damping=damping, diagnostics=False)
+        servo_diag = ibvs.Servo(layout, gain=gain, damping=damping, diagnostics=True)
+        servo_svd = ibvs.Servo(layout, gain=gain, damping=0.0)
+        upd, upd_diag, upd_svd = servo.update, servo_diag.update, servo_svd.update
+        fast = add("ibvs Servo.update damped", kind, layout.rows,
+                   lambda k: upd(*frames[k]), implementation="ibvs", twist_difference=difference)
+        add("ibvs Servo.update damped, .velocity", kind, layout.rows,
+            lambda k: upd(*frames[k]).velocity, implementation="ibvs")
+        add("ibvs Servo.update damped + diagnostics", kind, layout.rows,
+            lambda k: upd_diag(*frames[k]), implementation="ibvs")
+        add("ibvs Servo.update undamped (SVD)", kind, layout.rows,
+            lambda k: upd_svd(*frames[k]), implementation="ibvs")
+        ref = add("numpy vectorised, damped normal eqs", kind, layout.rows,
+                  lambda k, kind=kind: numpy_step(*frames[k], kind, damping, gain), implementation="numpy")
+        ratio = ref["median_us"] / fast["median_us"] if fast["median_us"] > 0 else math.inf
+        fast["numpy_ratio"] = ref["numpy_ratio"] = ratio
+
+    # Binding baselines: what any call costs, and an array in / array out call.
+    layout = _layout("stacked", n)
+    add("baseline: Layout.rows (property)", "stacked", layout.rows, lambda k: layout.rows, implementation="binding")
+    feats = ibvs.features
+    add("baseline: ibvs.features(uv) (N,2) in, (M,) out", "stacked", layout.rows,
+        lambda k: feats(frames[k][0], layout), implementation="binding")
+
+    return {
+        "benchmark": "ibvs.bench",
+        "version": ibvs.__version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "machine": platform.machine(),
+        "processor": _cpu_model(),
+        "iterations": iterations,
+        "damping": damping,
+        "gain": gain,
+        "timer_overhead_ns": overhead,
+        "cases": cases,
+    }
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def format_table(res: dict[str, Any]) -> str:
+    lines = [
+        f"ibvs.bench {res['version']} | {res['processor']} | Python {res['python']} | numpy {res['numpy']} | "
+        f"perf_counter_ns cost {res['timer_overhead_ns']:.0f} ns (subtracted)",
+        f"N = {res['cases'][0]['n']} points, damping {res['damping']}, gain {res['gain']}, "
+        f"{res['iterations']} iterations; times per call in microseconds",
+        "",
+        f"  {'case':<48} {'layout':<16} {'median':>8} {'p99':>8} {'max':>8} {'calls/s':>10} {'numpy/ibvs':>10}",
+    ]
+    for c in res["cases"]:
+        what = f"{c['layout']}({c['n']}) {c['rows']}x6"
+        ratio = f"{c['numpy_ratio']:.1f}x" if c.get("implementation") == "ibvs" and "numpy_ratio" in c else ""
+        lines.append(f"  {c['name']:<48} {what:<16} {c['median_us']:8.2f} {c['p99_us']:8.2f} {c['max_us']:8.1f} "
+                     f"{c['calls_per_s']:10.0f} {ratio:>10}")
+    return "\n".join(lines)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m ibvs.bench", description=__doc__.split("\n\n")[0])
+    p.add_argument("--iterations", type=int, default=20000, help="timed calls per case (default 20000)")
+    p.add_argument("--n", type=int, default=4, help="number of image points (default 4)")
+    p.add_argument("--damping", type=float, default=0.01, help="lambda > 0 (default 0.01)")
+    p.add_argument("--gain", type=float, default=0.5, help="gain > 0 (default 0.5)")
+    p.add_argument("--json", action="store_true", help="print one JSON line instead of the table")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.iterations < 1 or args.n < 1 or not args.damping > 0 or not args.gain > 0:
+        build_parser().error("need iterations >= 1, n >= 1, damping > 0, gain > 0")
+    res = run(args.iterations, args.n, args.damping, args.gain)
+    print(json.dumps(res) if args.json else format_table(res))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
