@@ -6,9 +6,11 @@
 namespace py = pybind11;
 
 void bind_core(py::module_& m);  // bind_core.cpp
+void bind_sim(py::module_& m);   // bind_sim.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
   m.attr("__version__") = IBVS_VERSION;
   bind_core(m);
+  bind_sim(m);
 }

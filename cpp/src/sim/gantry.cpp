@@ -1,6 +1,7 @@
 #include "ibvs/sim/gantry.hpp"
 
-#include <Eigen/SVD>
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include <cmath>
 #include <cstdio>
@@ -63,22 +64,18 @@ Matrix6 Gantry::jacobian(const Joints& q) const noexcept {
   return J;
 }
 
-Joints Gantry::joint_velocity(const Joints& q, const Twist& v, double* sigma_min) const noexcept {
-  const Eigen::JacobiSVD<Matrix6> svd(jacobian(q), Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const auto& s = svd.singularValues();
-  const double smin = s(5);
-  if (sigma_min) *sigma_min = smin;
-  double lambda2 = 0.0;
-  if (smin < singular_region) {
-    const double ratio = smin / singular_region;
-    lambda2 = (1.0 - ratio * ratio) * max_damping * max_damping;
-  }
-  Joints y = svd.matrixU().transpose() * v;
-  for (int i = 0; i < 6; ++i) {
-    const double d = s(i) * s(i) + lambda2;
-    y(i) = d > 0.0 ? y(i) * s(i) / d : 0.0;
-  }
-  return svd.matrixV() * y;
+double Gantry::manipulability(const Joints& q) const noexcept { return std::abs(std::cos(q(4))); }
+
+Joints Gantry::joint_velocity(const Joints& q, const Twist& v) const noexcept {
+  const Matrix6 J = jacobian(q);
+  const double w = manipulability(q);
+  if (w >= singular_region) return J.partialPivLu().solve(v);
+  const double ratio = singular_region > 0.0 ? w / singular_region : 1.0;
+  const double lambda2 = (1.0 - ratio * ratio) * max_damping * max_damping;
+  Matrix6 A;
+  A.noalias() = J.transpose() * J;
+  A.diagonal().array() += lambda2;
+  return A.ldlt().solve(J.transpose() * v);
 }
 
 Joints Gantry::saturate(const Joints& qdot) const noexcept {

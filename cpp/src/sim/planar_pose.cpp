@@ -1,5 +1,6 @@
 #include "ibvs/sim/planar_pose.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/SVD>

@@ -108,7 +108,7 @@ struct History {
   RowMatrix depth;         ///< K x N: depths given to the controller
   RowMatrix error;         ///< K x M: f (-) f*
   Eigen::VectorXd error_norm, sigma_min;
-  Eigen::VectorXd robot_sigma_min;  ///< smallest singular value of the gantry's camera Jacobian (gantry only)
+  Eigen::VectorXd manipulability;  ///< |det| of the gantry's camera Jacobian (gantry only)
 };
 
 struct EpisodeResult {

@@ -34,11 +34,13 @@ struct Gantry {
   Pose mount = Pose::Identity();  ///< end-effector <- camera (eMc)
   double coupling = 0.009091;     ///< q6' = q6 - coupling q5
   double offset = -0.06924;       ///< l, metres, between joints 5 and 6
-  /// Damped inverse of the camera Jacobian: no damping while its smallest
-  /// singular value is >= singular_region; below, lambda^2 grows smoothly to
-  /// max_damping^2 at sigma = 0 (Nakamura's variable damping).
-  double singular_region = 0.05;
-  double max_damping = 0.05;
+  /// Damped inverse of the camera Jacobian, driven by the manipulability
+  /// w = |det J| = |cos q5| (the only singularity: wrist axes 4 and 6
+  /// aligned at q5 = +-pi/2): plain inverse while w >= singular_region;
+  /// below, lambda^2 = (1 - (w / singular_region)^2) max_damping^2
+  /// (Nakamura and Hanafusa's variable damping).
+  double singular_region = 0.1;
+  double max_damping = 0.1;
 
   /// ViSP's vpAfma6 with the distorted-camera tool (CCMOP): limits and
   /// mount from the issue; speed limits (0.2 m/s, 0.7 rad/s) are ours.
@@ -49,9 +51,12 @@ struct Gantry {
   /// The camera twist (camera frame, ibvs convention) produced by joint
   /// velocities: v = J(q) qdot.
   Matrix6 jacobian(const Joints& q) const noexcept;
-  /// Damped inverse: qdot = J+ v (see singular_region). Writes the smallest
-  /// singular value of J to *sigma_min when given.
-  Joints joint_velocity(const Joints& q, const Twist& v, double* sigma_min = nullptr) const noexcept;
+  /// |det jacobian(q)| = |cos q5|: the rotation blocks have determinant 1 and
+  /// the prismatic joints give an identity block, leaving det[ez, a5, ze].
+  double manipulability(const Joints& q) const noexcept;
+  /// qdot with J(q) qdot = v: LU solve, or damped least squares
+  /// (J^T J + lambda^2 I)^-1 J^T v near the singularity (see singular_region).
+  Joints joint_velocity(const Joints& q, const Twist& v) const noexcept;
   /// qdot scaled by one factor <= 1 so that every |qdot_i| <= qdot_max_i
   /// (the direction, hence the camera path, is kept).
   Joints saturate(const Joints& qdot) const noexcept;

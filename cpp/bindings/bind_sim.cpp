@@ -1,0 +1,309 @@
+// Bindings of the simulator (ibvs._core.sim). Argument conversion only; the
+// Python face with run(), the result object and the paper's cases is
+// python/ibvs/sim/.
+#include "convert.hpp"
+#include "ibvs/ibvs.hpp"
+#include "ibvs/sim/sim.hpp"
+
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+namespace py = pybind11;
+using namespace ibvs;
+using namespace ibvs::sim;
+using namespace ibvs::py_convert;
+
+namespace {
+
+using RowMatrix4 = Eigen::Matrix<double, 4, 4, Eigen::RowMajor>;
+
+Pose pose_arg(py::handle obj, const char* name) {
+  const CArray a = as_array(obj, name);
+  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+    throw py::value_error(std::string(name) + " must be a 4x4 pose, got shape " + shape_of(a));
+  return Eigen::Map<const RowMatrix4>(a.data());
+}
+
+Joints joints_arg(py::handle obj, const char* name) {
+  const CArray a = as_array(obj, name);
+  if (a.ndim() != 1 || a.shape(0) != 6)
+    throw py::value_error(std::string(name) + " must be 6 joint positions, got shape " + shape_of(a));
+  return Eigen::Map<const Joints>(a.data());
+}
+
+Twist twist_arg(py::handle obj, const char* name) {
+  const CArray a = as_array(obj, name);
+  if (a.ndim() != 1 || a.shape(0) != 6) throw py::value_error(std::string(name) + " must have shape (6,), got " + shape_of(a));
+  return Eigen::Map<const Twist>(a.data());
+}
+
+// (N, 2) array -> (N, 2) array through f(x, y).
+template <class F>
+py::array_t<double> map_points(py::handle obj, const char* name, F f) {
+  const CArray a = as_array(obj, name);
+  const auto p = points(a, name);
+  py::array_t<double> out({static_cast<py::ssize_t>(p.cols()), py::ssize_t{2}});
+  auto o = out.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < p.cols(); ++i) {
+    const Eigen::Vector2d q = f(p(0, i), p(1, i));
+    o(i, 0) = q(0);
+    o(i, 1) = q(1);
+  }
+  return out;
+}
+
+// Copy of the first `rows` rows of a row-major matrix as an array of the given trailing shape.
+py::array_t<double> rows_of(const RowMatrix& M, int rows, std::vector<py::ssize_t> tail) {
+  std::vector<py::ssize_t> shape{rows};
+  shape.insert(shape.end(), tail.begin(), tail.end());
+  py::array_t<double> out(shape);
+  std::copy_n(M.data(), static_cast<std::size_t>(rows) * M.cols(), out.mutable_data());
+  return out;
+}
+py::array_t<double> rows_of(const Eigen::VectorXd& v, int rows) {
+  py::array_t<double> out(rows);
+  std::copy_n(v.data(), rows, out.mutable_data());
+  return out;
+}
+
+DepthMode depth_mode(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("depth must be 'exact', 'pose' or 'desired', got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  const auto s = obj.cast<std::string>();
+  if (s == "exact") return DepthMode::exact;
+  if (s == "pose") return DepthMode::pose;
+  if (s == "desired") return DepthMode::desired;
+  throw py::value_error("depth must be 'exact', 'pose' or 'desired', got '" + s + "'");
+}
+
+// A fresh C++ Servo with the layout and options of the Python ibvs.Servo
+// (the run never mutates the caller's servo).
+Servo servo_copy(const py::module_& core, py::handle obj) {
+  if (!py::isinstance(obj, core.attr("Servo")))
+    throw py::type_error("servo must be an ibvs.Servo, got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  ServoOptions o;
+  o.gain = obj.attr("gain").cast<double>();
+  o.damping = obj.attr("damping").cast<double>();
+  const auto j = obj.attr("jacobian_mode").cast<std::string>();
+  o.jacobian = j == "desired" ? InteractionMatrix::desired : j == "mean" ? InteractionMatrix::mean : InteractionMatrix::current;
+  o.polar_min_radius = obj.attr("polar_min_radius").cast<double>();
+  o.diagnostics = true;
+  return Servo(obj.attr("layout").cast<Layout>(), o);
+}
+
+py::dict result_dict(const EpisodeResult& r, bool gantry) {
+  const History& h = r.history;
+  const int k = h.frames;
+  const py::ssize_t n = r.uv_desired.cols(), m = h.error.cols();
+  py::dict d;
+  d["outcome"] = to_string(r.status.outcome);
+  d["frame"] = r.status.frame;
+  d["point"] = r.status.point;
+  d["joint"] = r.status.joint;
+  d["frames_to_converge"] = r.metrics.frames_to_converge;
+  d["camera_retreat"] = r.metrics.camera_retreat;
+  d["path_length"] = r.metrics.path_length;
+  d["final_translation_error"] = r.metrics.final_translation_error;
+  d["final_rotation_error"] = r.metrics.final_rotation_error;
+  d["time"] = rows_of(h.time, k);
+  d["pose"] = rows_of(h.pose, k, {4, 4});
+  d["twist"] = rows_of(h.twist, k, {6});
+  d["uv"] = rows_of(h.uv, k, {n, 2});
+  d["rtheta"] = rows_of(h.rtheta, k, {n, 2});
+  d["depth"] = rows_of(h.depth, k, {n});
+  d["error"] = rows_of(h.error, k, {m});
+  d["error_norm"] = rows_of(h.error_norm, k);
+  d["sigma_min"] = rows_of(h.sigma_min, k);
+  if (gantry) {
+    d["q"] = rows_of(h.q, k, {6});
+    d["qdot"] = rows_of(h.qdot, k, {6});
+    d["manipulability"] = rows_of(h.manipulability, k);
+  }
+  py::array_t<double> uvd({n, py::ssize_t{2}});
+  std::copy_n(r.uv_desired.data(), 2 * n, uvd.mutable_data());
+  d["uv_desired"] = uvd;
+  d["depth_desired"] = Eigen::VectorXd(r.depth_desired);
+  d["goal"] = Eigen::Matrix4d(r.goal);
+  return d;
+}
+
+}  // namespace
+
+void bind_sim(py::module_& m) {
+  py::module_ s = m.def_submodule("sim", "Closed-loop simulator (C++). Use ibvs.sim, not this module.");
+
+  py::class_<Camera>(s, "Camera", R"(Pinhole camera with ViSP's first-order radial distortion.
+
+Measurement coordinates are pixels for a pixel camera, normalised coordinates for
+Camera.normalized(). project(): normalised -> measurement with kud;
+normalize(): measurement -> normalised with kdu.)")
+      .def(py::init([](double px, double py_, double u0, double v0, double kud, double kdu, double width,
+                       double height, double fps) {
+             Camera c;
+             c.px = px;
+             c.py = py_;
+             c.u0 = u0;
+             c.v0 = v0;
+             c.kud = kud;
+             c.kdu = kdu;
+             c.u_min = c.v_min = 0.0;
+             c.u_max = width;
+             c.v_max = height;
+             c.fps = fps;
+             c.validate();
+             return c;
+           }),
+           py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"), py::arg("kud") = 0.0, py::arg("kdu") = 0.0,
+           py::arg("width") = 640.0, py::arg("height") = 480.0, py::arg("fps") = 60.0,
+           "A pixel camera; the sensor spans [0, width] x [0, height] pixels.")
+      .def_static("normalized", &Camera::normalized, py::arg("bounds") = 0.3, py::arg("fps") = 60.0,
+                  "Paper Table I: unit focal length, image plane +-bounds, no distortion.")
+      .def_static("afma6", &Camera::afma6,
+                  "Paper Section III-B / ViSP Afma6 camera: 640x480, px 1090.6, py 1090.0, u0 310.1, v0 260.8, "
+                  "kud -0.2114, kdu 0.2217, 60 fps.")
+      .def_readonly("px", &Camera::px)
+      .def_readonly("py", &Camera::py)
+      .def_readonly("u0", &Camera::u0)
+      .def_readonly("v0", &Camera::v0)
+      .def_readonly("kud", &Camera::kud)
+      .def_readonly("kdu", &Camera::kdu)
+      .def_property_readonly("bounds",
+                             [](const Camera& c) { return py::make_tuple(c.u_min, c.u_max, c.v_min, c.v_max); },
+                             "(u_min, u_max, v_min, v_max) in measurement units.")
+      .def_readonly("fps", &Camera::fps)
+      .def(
+          "project",
+          [](const Camera& c, py::handle xy) {
+            return map_points(xy, "xy", [&](double x, double y) { return c.project(x, y); });
+          },
+          py::arg("xy"), "Normalised points (N, 2) -> measurement (N, 2), distorted with kud.")
+      .def(
+          "normalize",
+          [](const Camera& c, py::handle uv) {
+            return map_points(uv, "uv", [&](double u, double v) { return c.normalize(u, v); });
+          },
+          py::arg("uv"), "Measurement points (N, 2) -> normalised (N, 2), undistorted with kdu.")
+      .def("__repr__", &Camera::describe);
+
+  py::class_<Target>(s, "Target", "Points (N, 3) in the target frame and the target's world pose (4x4).")
+      .def(py::init([](py::handle pts, py::handle pose) {
+             const CArray a = as_array(pts, "points");
+             if (a.ndim() != 2 || a.shape(1) != 3)
+               throw py::value_error("points must have shape (N, 3), got " + shape_of(a));
+             Target t;
+             t.points = Eigen::Map<const Eigen::Matrix3Xd>(a.data(), 3, a.shape(0));
+             t.pose = pose.is_none() ? Pose(Pose::Identity()) : pose_arg(pose, "pose");
+             t.validate();
+             return t;
+           }),
+           py::arg("points"), py::arg("pose") = py::none())
+      .def_static("paper", &Target::paper, "Paper Table I: the points (+-0.25, +-0.25, 3) in the world.")
+      .def_static(
+          "square",
+          [](double side, py::handle pose) {
+            return Target::square(side, pose.is_none() ? Pose(Pose::Identity()) : pose_arg(pose, "pose"));
+          },
+          py::arg("side") = 0.1, py::arg("pose") = py::none(),
+          "Four dots at the corners of a square (side in metres) in the target's z = 0 plane.")
+      .def_property_readonly("points", [](const Target& t) { return Eigen::MatrixX3d(t.points.transpose()); },
+                             "(N, 3), target frame.")
+      .def_property_readonly("pose", [](const Target& t) { return Eigen::Matrix4d(t.pose); }, "world <- target, 4x4.")
+      .def("world_points", [](const Target& t) { return Eigen::MatrixX3d(t.world_points().transpose()); },
+           "(N, 3), world frame.")
+      .def_property_readonly("planar", [](const Target& t) { return t.planar(); })
+      .def("__len__", &Target::size)
+      .def("__repr__", &Target::describe);
+
+  py::class_<Gantry>(s, "Gantry", "Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange.")
+      .def_static("afma6", &Gantry::afma6, "ViSP vpAfma6 defaults with the distorted-camera mount.")
+      .def_readonly("q_min", &Gantry::q_min)
+      .def_readonly("q_max", &Gantry::q_max)
+      .def_readonly("qdot_max", &Gantry::qdot_max)
+      .def_property_readonly("mount", [](const Gantry& g) { return Eigen::Matrix4d(g.mount); },
+                             "end-effector <- camera, 4x4.")
+      .def_readonly("coupling", &Gantry::coupling)
+      .def_readonly("offset", &Gantry::offset)
+      .def(
+          "with_limits",
+          [](const Gantry& g, py::handle qmin, py::handle qmax, py::handle qdmax) {
+            Gantry o = g;
+            if (!qmin.is_none()) o.q_min = joints_arg(qmin, "q_min");
+            if (!qmax.is_none()) o.q_max = joints_arg(qmax, "q_max");
+            if (!qdmax.is_none()) o.qdot_max = joints_arg(qdmax, "qdot_max");
+            o.validate();
+            return o;
+          },
+          py::arg("q_min") = py::none(), py::arg("q_max") = py::none(), py::arg("qdot_max") = py::none(),
+          "A copy with other joint position / speed limits.")
+      .def("end_effector", [](const Gantry& g, py::handle q) { return Eigen::Matrix4d(g.end_effector(joints_arg(q, "q"))); },
+           py::arg("q"), "world <- end-effector, 4x4.")
+      .def("camera", [](const Gantry& g, py::handle q) { return Eigen::Matrix4d(g.camera(joints_arg(q, "q"))); },
+           py::arg("q"), "world <- camera, 4x4.")
+      .def("jacobian", [](const Gantry& g, py::handle q) { return Matrix6(g.jacobian(joints_arg(q, "q"))); },
+           py::arg("q"), "(6, 6): camera twist (camera frame) = J @ qdot.")
+      .def(
+          "joint_velocity",
+          [](const Gantry& g, py::handle q, py::handle v) {
+            return Joints(g.joint_velocity(joints_arg(q, "q"), twist_arg(v, "twist")));
+          },
+          py::arg("q"), py::arg("twist"), "Joint velocities producing the camera twist (damped near q5 = +-pi/2).")
+      .def(
+          "manipulability", [](const Gantry& g, py::handle q) { return g.manipulability(joints_arg(q, "q")); },
+          py::arg("q"), "|det jacobian(q)| = |cos q5|.")
+      .def(
+          "outside_limits", [](const Gantry& g, py::handle q) { return g.outside_limits(joints_arg(q, "q")); },
+          py::arg("q"), "Index of the first joint outside its range, or -1.")
+      .def("__repr__", &Gantry::describe);
+
+  s.def(
+      "_run",
+      [m](py::handle servo, const Camera& camera, const Target& target, py::handle start, py::handle goal,
+          std::optional<Gantry> robot, double duration, double noise, int latency, py::handle depth,
+          std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
+          bool stop_on_singular) {
+        EpisodeOptions o;
+        o.duration = duration;
+        o.noise = noise;
+        o.latency = latency;
+        o.depth = depth_mode(depth);
+        o.seed = seed;
+        o.tolerance = tolerance;
+        o.max_depth_ratio = max_depth_ratio;
+        o.max_error_ratio = max_error_ratio;
+        o.stop_on_singular = stop_on_singular;
+        Servo sv = servo_copy(m, servo);
+        if (robot) {
+          const Joints qs = joints_arg(start, "start");
+          const CArray g = as_array(goal, "goal");
+          Episode e(std::move(sv), camera, target, *robot, o);
+          const EpisodeResult* r;
+          if (g.ndim() == 1) {
+            const Joints qg = joints_arg(goal, "goal");
+            py::gil_scoped_release release;
+            r = &e.run(qs, qg);
+          } else {
+            const Pose pg = pose_arg(goal, "goal");
+            py::gil_scoped_release release;
+            r = &e.run(qs, pg);
+          }
+          return result_dict(*r, true);
+        }
+        const Pose ps = pose_arg(start, "start"), pg = pose_arg(goal, "goal");
+        Episode e(std::move(sv), camera, target, o);
+        const EpisodeResult* r;
+        {
+          py::gil_scoped_release release;
+          r = &e.run(ps, pg);
+        }
+        return result_dict(*r, false);
+      },
+      py::arg("servo"), py::arg("camera"), py::arg("target"), py::arg("start"), py::arg("goal"),
+      py::arg("robot") = py::none(), py::arg("duration") = 10.0, py::arg("noise") = 0.0, py::arg("latency") = 0,
+      py::arg("depth") = "exact", py::arg("seed") = 0, py::arg("tolerance") = 1e-4, py::arg("max_depth_ratio") = 10.0,
+      py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true,
+      "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
+}

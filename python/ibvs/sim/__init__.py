@@ -1,0 +1,225 @@
+"""ibvs.sim: closed-loop simulation of a Servo on a free-flying camera or an Afma6-like gantry.
+
+The whole loop runs in C++ (one call per episode); this module configures it and
+returns the history as numpy arrays.
+
+    import numpy as np, ibvs, ibvs.sim as sim
+    servo = ibvs.Servo(ibvs.Layout.polar(4), gain=1.0)
+    case = sim.cases.z_rotation()
+    result = sim.run(servo, case.camera, case.target, case.start, case.goal, duration=case.duration)
+    result.status.outcome, result.metrics.camera_retreat, result.history.twist
+
+Frames and conventions are those of ibvs (camera x right, y down, z forward;
+twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .._core import sim as _sim
+from . import cases
+from .poses import pose, rotation
+
+Camera = _sim.Camera
+Target = _sim.Target
+Gantry = _sim.Gantry
+
+__all__ = [
+    "Camera",
+    "Gantry",
+    "History",
+    "Metrics",
+    "Result",
+    "RunStatus",
+    "Target",
+    "cases",
+    "pose",
+    "rotation",
+    "run",
+]
+
+OUTCOMES = ("converged", "left_image", "behind_camera", "joint_limit", "singular", "diverged", "timeout")
+
+
+@dataclass(frozen=True)
+class RunStatus:
+    """How an episode ended.
+
+    outcome: one of OUTCOMES. frame: frame of the event (the last frame for a
+    timeout). point: index of the point for left_image / behind_camera, else -1.
+    joint: index (0-based) of the joint for joint_limit, else -1.
+    """
+
+    outcome: str
+    frame: int
+    point: int = -1
+    joint: int = -1
+
+    @property
+    def converged(self) -> bool:
+        return self.outcome == "converged"
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """Summary of an episode.
+
+    frames_to_converge: frame index at which the error norm fell under tolerance, or -1.
+    camera_retreat: largest increase (m) of the target centre's depth along the optical axis over its start.
+    path_length: length (m) of the camera centre's path.
+    final_translation_error / final_rotation_error: distance (m) and angle (rad) between the
+    last camera pose and the goal.
+    """
+
+    frames_to_converge: int
+    camera_retreat: float
+    path_length: float
+    final_translation_error: float
+    final_rotation_error: float
+
+
+@dataclass(frozen=True)
+class History:
+    """Per-frame arrays (K frames). NaN where the last frame could not compute a value.
+
+    time (K,) s; pose (K, 4, 4) world <- camera; twist (K, 6) commanded camera twist;
+    uv (K, N, 2) and rtheta (K, N, 2) the points the controller saw (normalised, undistorted);
+    depth (K, N) the depths it was given; error (K, M) f (-) f*; error_norm (K,);
+    sigma_min (K,) smallest singular value of the interaction matrix.
+    Gantry only (else None): q (K, 6), qdot (K, 6) joint velocity applied after the frame,
+    manipulability (K,) |det| of the robot's camera Jacobian (= |cos q5|).
+    """
+
+    time: np.ndarray
+    pose: np.ndarray
+    twist: np.ndarray
+    uv: np.ndarray
+    rtheta: np.ndarray
+    depth: np.ndarray
+    error: np.ndarray
+    error_norm: np.ndarray
+    sigma_min: np.ndarray
+    q: Optional[np.ndarray] = None
+    qdot: Optional[np.ndarray] = None
+    manipulability: Optional[np.ndarray] = None
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+
+@dataclass(frozen=True)
+class Result:
+    """Outcome of run(): status, metrics, history, and the desired features/pose used."""
+
+    status: RunStatus
+    metrics: Metrics
+    history: History
+    uv_desired: np.ndarray
+    depth_desired: np.ndarray
+    goal: np.ndarray
+
+    @property
+    def converged(self) -> bool:
+        return self.status.converged
+
+    def __repr__(self) -> str:
+        s, m = self.status, self.metrics
+        extra = f", point={s.point}" if s.point >= 0 else f", joint={s.joint}" if s.joint >= 0 else ""
+        return (
+            f"Result({s.outcome} at frame {s.frame}{extra}, retreat={m.camera_retreat:.4g} m, "
+            f"path={m.path_length:.4g} m, final error {m.final_translation_error:.3g} m / "
+            f"{np.degrees(m.final_rotation_error):.3g} deg)"
+        )
+
+
+def run(
+    servo,
+    camera: Camera,
+    target: Target,
+    start,
+    goal,
+    robot: Optional[Gantry] = None,
+    duration: float = 10.0,
+    noise: float = 0.0,
+    latency: int = 0,
+    depth: str = "exact",
+    seed: int = 0,
+    tolerance: float = 1e-4,
+    max_depth_ratio: float = 10.0,
+    max_error_ratio: float = 100.0,
+    stop_on_singular: bool = True,
+) -> Result:
+    """Simulate one closed-loop episode (in C++) and return its Result.
+
+    servo: an ibvs.Servo; its layout (Cartesian, polar, stacked or per-point hybrid),
+        gain, damping and jacobian mode are used (the object itself is not modified).
+    camera, target: a Camera and a Target with as many points as the servo's layout.
+    start, goal: 4x4 world <- camera poses; with robot (a Gantry), start is 6 joint
+        positions and goal 6 joint positions or a 4x4 pose. The desired features are
+        what the camera measures at the goal.
+    duration: seconds; the episode has round(duration * camera.fps) frames.
+    noise: std of Gaussian noise on the measured points, in measurement units (pixels;
+        normalised units for Camera.normalized).
+    latency: frames between capture and control.
+    depth: "exact" (true depths), "pose" (from a planar pose estimate of the measured
+        points; needs a planar target) or "desired" (the constant desired depths).
+    seed: seed of the noise generator (std::mt19937_64).
+    tolerance: converged when the servo's error norm is below this.
+    max_depth_ratio, max_error_ratio: diverged when the target's depth or the error norm
+        exceeds this multiple of its start value.
+    stop_on_singular: end with "singular" when the servo reports a rank-deficient J.
+    """
+    if robot is not None and not isinstance(robot, Gantry):
+        raise TypeError(f"robot must be an ibvs.sim.Gantry or None, got {type(robot).__name__}")
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be an ibvs.sim.Camera, got {type(camera).__name__}")
+    if not isinstance(target, Target):
+        raise TypeError(f"target must be an ibvs.sim.Target, got {type(target).__name__}")
+    if isinstance(latency, bool) or not isinstance(latency, (int, np.integer)):
+        raise TypeError(f"latency must be an int (frames), got {type(latency).__name__}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise TypeError(f"seed must be a non-negative int, got {seed!r}")
+    d = _sim._run(
+        servo,
+        camera,
+        target,
+        start,
+        goal,
+        robot,
+        duration=float(duration),
+        noise=float(noise),
+        latency=int(latency),
+        depth=depth,
+        seed=int(seed),
+        tolerance=float(tolerance),
+        max_depth_ratio=float(max_depth_ratio),
+        max_error_ratio=float(max_error_ratio),
+        stop_on_singular=bool(stop_on_singular),
+    )
+    status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
+    metrics = Metrics(
+        d["frames_to_converge"],
+        d["camera_retreat"],
+        d["path_length"],
+        d["final_translation_error"],
+        d["final_rotation_error"],
+    )
+    history = History(
+        d["time"],
+        d["pose"],
+        d["twist"],
+        d["uv"],
+        d["rtheta"],
+        d["depth"],
+        d["error"],
+        d["error_norm"],
+        d["sigma_min"],
+        d.get("q"),
+        d.get("qdot"),
+        d.get("manipulability"),
+    )
+    return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"])
