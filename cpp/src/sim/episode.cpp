@@ -159,7 +159,6 @@ const EpisodeResult& Episode::run(const Joints& q_start, const Joints& q_goal) {
 
 void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
   const int n = target_.size();
-  const Eigen::Index m = servo_.layout().rows();
   const int K = capacity();
   const int slots = options_.latency + 1;
   const double dt = 1.0 / camera_.fps;
@@ -240,13 +239,9 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
       case DepthMode::exact: z_ = ring_depth_.row(seen).transpose(); break;
       case DepthMode::desired: z_ = result_.depth_desired; break;
       case DepthMode::pose: {
-        if (!have_est) {
-          // Start the estimator from the true pose of frame 0 is not allowed: it
-          // must come from the image; the linear homography step needs no guess.
-          have_est = estimator_->estimate(uv_, T_est);
-        } else {
-          estimator_->estimate(uv_, T_est);  // on failure keep the last estimate
-        }
+        // From the image alone (the homography step needs no initial guess);
+        // on failure the last estimate is kept.
+        have_est = estimator_->estimate(uv_, T_est) || have_est;
         for (int i = 0; i < n; ++i)
           z_(i) = have_est ? (T_est.row(2).head<3>().dot(target_.points.col(i)) + T_est(2, 3)) : nan;
         break;

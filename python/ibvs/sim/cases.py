@@ -26,7 +26,7 @@ import numpy as np
 from .._core import sim as _sim
 from .poses import pose
 
-__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "gantry_general_motion", "free_cases", "all_cases"]
+__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "gantry_general_motion", "gantry_joint_limit", "solve_joints", "free_cases", "all_cases"]
 
 
 @dataclass(frozen=True)
@@ -90,10 +90,76 @@ def general_motion() -> Case:
     )
 
 
+# Gantry: the goal joint configuration (wrist tilted, well inside every limit and
+# away from the wrist singularity q5 = pi/2), the desired camera <- target pose
+# (0, 0, 0.6, 0, 0, 0), and the start as a camera-frame offset from the goal.
+GANTRY_GOAL_Q = (0.0, 0.0, 0.0, 0.0, 0.4, 0.0)
+DESIRED_DEPTH = 0.6
+GANTRY_GENERAL_MOTION_T = (0.04, -0.03, -0.12)
+GANTRY_GENERAL_MOTION_R = (0.1, -0.15, 0.8)
+# A start from which polar and stacked IBVS drive joint 5 into its lower limit
+# (paper Section V reports joint limits for one hybrid scheme on the real robot).
+GANTRY_JOINT_LIMIT_T = (-0.03, 0.02, -0.1)
+GANTRY_JOINT_LIMIT_R = (-0.1, 0.1, -0.6)
+
+
+def _rotation_vector(R: np.ndarray) -> np.ndarray:
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    s, c = np.linalg.norm(w) / 2, (np.trace(R) - 1) / 2
+    a = np.arctan2(s, c)
+    return w * (0.5 if a < 1e-9 else a / (2 * s))
+
+
+def solve_joints(robot: _sim.Gantry, camera_pose: np.ndarray, q0, iterations: int = 50) -> np.ndarray:
+    """Joint positions placing the camera at camera_pose (4x4, world <- camera), by Newton
+    steps on the robot's camera Jacobian from q0. Raises ValueError if it does not converge
+    or the solution is outside the joint limits."""
+    q = np.array(q0, dtype=float)
+    for _ in range(iterations):
+        D = np.linalg.inv(robot.camera(q)) @ camera_pose
+        e = np.r_[D[:3, 3], _rotation_vector(D[:3, :3])]
+        if np.linalg.norm(e) < 1e-13:
+            break
+        q = q + np.linalg.solve(robot.jacobian(q), e)
+    if np.abs(robot.camera(q) - camera_pose).max() > 1e-9:
+        raise ValueError("camera_pose: inverse kinematics did not converge")
+    if robot.outside_limits(q) >= 0:
+        raise ValueError(f"camera_pose: joint {robot.outside_limits(q) + 1} would be outside its limits")
+    return q
+
+
+def _gantry_case(name: str, description: str, t, r, duration: float) -> Case:
+    robot = _sim.Gantry.afma6()
+    goal = np.array(GANTRY_GOAL_Q)
+    goal_pose = robot.camera(goal)
+    target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, DESIRED_DEPTH)))
+    start = solve_joints(robot, goal_pose @ pose(t=t, r=r), goal)
+    return Case(name, description, _sim.Camera.afma6(), target, start, goal, robot, duration,
+                {"start_offset": (t, r)})
+
+
+def gantry_general_motion() -> Case:
+    """Paper Section III-B (Figs. 6-8): general motion on the Afma6-like gantry with the distorted camera.
+
+    Goal: joints GANTRY_GOAL_Q, where the camera sees the 10 cm square target centred at
+    0.6 m, i.e. the desired pose (0, 0, 0.6, 0, 0, 0). Start: the camera moved by
+    pose(GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R) in its own frame from the goal,
+    as joint positions. Cartesian, polar and stacked IBVS all reach the goal (gain 2, 15 s).
+    """
+    return _gantry_case("gantry_general_motion", "general motion on the gantry (paper Figs. 6-8)",
+                        GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R, 15.0)
+
+
+def gantry_joint_limit() -> Case:
+    """A gantry start from which polar and stacked IBVS hit joint 5's lower limit (Cartesian converges)."""
+    return _gantry_case("gantry_joint_limit", "gantry start leading IBVS-P into a joint limit",
+                        GANTRY_JOINT_LIMIT_T, GANTRY_JOINT_LIMIT_R, 15.0)
+
+
 def free_cases() -> list[Case]:
     """The three free-flying cases of Section III-A."""
     return [x_translation(), z_rotation(), general_motion()]
 
 
 def all_cases() -> list[Case]:
-    return free_cases() + [gantry_general_motion()]
+    return free_cases() + [gantry_general_motion(), gantry_joint_limit()]

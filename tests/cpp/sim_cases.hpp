@@ -1,0 +1,48 @@
+// The paper's cases for the C++ simulator tests: the same numbers as
+// python/ibvs/sim/cases.py (which documents how they were chosen).
+#pragma once
+
+#include "ibvs/ibvs.hpp"
+#include "ibvs/sim/sim.hpp"
+
+#include <Eigen/Geometry>
+
+namespace sim_cases {
+
+using namespace ibvs;
+using namespace ibvs::sim;
+
+inline Pose make_pose(double tx, double ty, double tz, double rx, double ry, double rz) {
+  Pose T = Pose::Identity();
+  T.topLeftCorner<3, 3>() = rxyz(rx, ry, rz);
+  T.topRightCorner<3, 1>() << tx, ty, tz;
+  return T;
+}
+
+inline Pose half_turn_z() {  // exact diag(-1, -1, 1), as cases.z_rotation() builds it
+  Pose T = Pose::Identity();
+  T(0, 0) = T(1, 1) = -1.0;
+  return T;
+}
+
+inline Pose x_translation() { return make_pose(0.2, 0, 0, 0, 0, 0); }
+inline Pose general_motion() { return make_pose(0.15, -0.1, -0.6, 0.12, -0.1, 0.6); }
+
+inline Joints gantry_goal() { return (Joints() << 0, 0, 0, 0, 0.4, 0).finished(); }
+// cases.gantry_general_motion().start (camera moved by (0.04, -0.03, -0.12), rxyz (0.1, -0.15, 0.8))
+inline Joints gantry_start() {
+  return (Joints() << 0.18835158467582477, 0.13029503186413266, -0.08642184066403318, 0.8211754709024601,
+          0.24154253183929314, -0.4579106120861423)
+      .finished();
+}
+// cases.gantry_joint_limit().start
+inline Joints gantry_joint_limit_start() {
+  return (Joints() << -0.17402027717582613, 0.0410626054118219, -0.04178406077186157, -0.6130717302227199,
+          0.1973306775960816, 0.24484268338397025)
+      .finished();
+}
+inline Target gantry_target(const Gantry& g) {
+  return Target::square(0.1, g.camera(gantry_goal()) * make_pose(0, 0, 0.6, 0, 0, 0));
+}
+
+}  // namespace sim_cases
