@@ -1,7 +1,8 @@
 // ibvs-bench: the control loop timed, part by part and whole, and run paced at
 // real-time rates. A plain main() program: no benchmark framework.
 //
-//   ibvs-bench                        components (N=4, each layout), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz
+//   ibvs-bench                        components (N=4, each layout), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz,
+//                                     600-frame simulated gantry episodes
 //   ibvs-bench --paced 1000 --duration 10
 //   ibvs-bench --sections components --layout stacked --n 4 --iterations 1000000
 //   ibvs-bench --json                 one JSON line on stdout (the table goes to stderr)
@@ -13,6 +14,7 @@
 #include "kernels.hpp"
 
 #include "ibvs/ibvs.hpp"
+#include "ibvs/sim/sim.hpp"
 
 #include <Eigen/Core>
 
@@ -32,6 +34,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #if defined(__linux__)
@@ -113,6 +116,7 @@ struct Options {
   bool rates_given = false;
   double duration = 10.0;
   double spin_us = 0.0;
+  long episodes = 50;
   bool realtime = false;
   std::vector<std::string> sections;
   bool json = false;
@@ -140,7 +144,8 @@ std::vector<std::string> split(const std::string& s) {
                "  --duration S       seconds per paced loop (default 10)\n"
                "  --spin US          paced: sleep until US microseconds before each deadline, then spin (default 0)\n"
                "  --realtime         paced: try SCHED_FIFO 80 and mlockall (needs CAP_SYS_NICE)\n"
-               "  --sections S[,S..] components, growth, paced (default all three)\n"
+               "  --episodes K       simulated 600-frame gantry episodes per episode case (default 50)\n"
+               "  --sections S[,S..] components, growth, paced, episode (default all four)\n"
                "  --json             one JSON line on stdout; the human table goes to stderr\n");
   std::exit(code);
 }
@@ -182,6 +187,7 @@ Options parse(int argc, char** argv) {
     } else if (a == "--duration") o.duration = number(need(i), "--duration");
     else if (a == "--spin") o.spin_us = number(need(i), "--spin");
     else if (a == "--realtime") o.realtime = true;
+    else if (a == "--episodes") o.episodes = static_cast<long>(number(need(i), "--episodes"));
     else if (a == "--sections") o.sections = split(need(i));
     else if (a == "--json") o.json = true;
     else {
@@ -201,8 +207,8 @@ Options parse(int argc, char** argv) {
       std::fprintf(stderr, "ibvs-bench: --n must be >= 1\n");
       usage(2);
     }
-  if (o.iterations < 1 || !(o.damping > 0.0) || !(o.gain > 0.0) || !(o.duration > 0.0) || o.spin_us < 0.0) {
-    std::fprintf(stderr, "ibvs-bench: need iterations >= 1, damping > 0, gain > 0, duration > 0, spin >= 0\n");
+  if (o.iterations < 1 || o.episodes < 1 || !(o.damping > 0.0) || !(o.gain > 0.0) || !(o.duration > 0.0) || o.spin_us < 0.0) {
+    std::fprintf(stderr, "ibvs-bench: need iterations >= 1, episodes >= 1, damping > 0, gain > 0, duration > 0, spin >= 0\n");
     usage(2);
   }
   for (double r : o.rates)
@@ -213,10 +219,10 @@ Options parse(int argc, char** argv) {
   if (o.warmup < 0) o.warmup = std::max(1000L, o.iterations / 10);
   if (o.sections.empty()) {
     if (o.rates_given && !o.layouts_given && !o.ns_given) o.sections = {"paced"};
-    else o.sections = {"components", "growth", "paced"};
+    else o.sections = {"components", "growth", "paced", "episode"};
   }
   for (const auto& s : o.sections)
-    if (s != "components" && s != "growth" && s != "paced") {
+    if (s != "components" && s != "growth" && s != "paced" && s != "episode") {
       std::fprintf(stderr, "ibvs-bench: unknown section '%s'\n", s.c_str());
       usage(2);
     }
@@ -638,6 +644,76 @@ bool try_realtime() {
 #endif
 }
 
+// -------------------------------------------------------------- episode ---
+struct EpisodeCase {
+  std::string name, layout, outcome;
+  int n = 0, frames = 0;
+  double damping = 0, noise = 0;
+  int latency = 0;
+  std::string depth;
+  long episodes = 0;
+  double median_ms = 0, p99_ms = 0, max_ms = 0, mean_ms = 0, episodes_per_s = 0, us_per_frame = 0;
+  double allocs_per_episode = 0;
+};
+std::vector<EpisodeCase> g_episodes;
+
+/// A whole closed-loop episode in C++ (ibvs::sim::Episode::run): Afma6 camera
+/// (640x480, radial distortion both ways, 60 fps) on the Afma6-like gantry,
+/// stacked(4) servo, tolerance 0 so that all 600 frames (10 s) run. The set-up
+/// is the simulator's gantry "general motion" case (tests/cpp/sim_cases.hpp).
+void bench_episode(const char* name, double damping, double noise, int latency, ibvs::sim::DepthMode depth,
+                   const Options& o) {
+  using namespace ibvs::sim;
+  const Gantry g = Gantry::afma6();
+  const Joints q_goal = (Joints() << 0, 0, 0, 0, 0.4, 0).finished();
+  const Joints q_start = (Joints() << 0.18835158467582477, 0.13029503186413266, -0.08642184066403318,
+                          0.8211754709024601, 0.24154253183929314, -0.4579106120861423)
+                             .finished();
+  ibvs::Pose in_front = ibvs::Pose::Identity();
+  in_front(2, 3) = 0.6;
+  const Target target = Target::square(0.1, g.camera(q_goal) * in_front);
+  EpisodeOptions eo;
+  eo.duration = 10.0;
+  eo.tolerance = 0.0;
+  eo.noise = noise;
+  eo.latency = latency;
+  eo.depth = depth;
+  eo.seed = 1;
+  ibvs::ServoOptions so = servo_options(2.0, damping, true);
+  Episode episode(ibvs::Servo(Layout::stacked(4), so), Camera::afma6(), target, g, eo);
+  for (int i = 0; i < 3; ++i) episode.run(q_start, q_goal);  // warm-up
+  std::vector<double> t(static_cast<std::size_t>(o.episodes));
+  const long a0 = g_allocations.load();
+  for (auto& x : t) {
+    const auto a = Clock::now();
+    episode.run(q_start, q_goal);
+    x = ns_between(a, Clock::now()) * 1e-6;
+  }
+  const long a1 = g_allocations.load();
+  EpisodeCase c;
+  c.name = name;
+  c.layout = "stacked";
+  c.n = 4;
+  c.damping = damping;
+  c.noise = noise;
+  c.latency = latency;
+  c.depth = to_string(depth);
+  c.frames = episode.result().history.frames;
+  c.outcome = to_string(episode.result().status.outcome);
+  c.episodes = o.episodes;
+  double sum = 0;
+  for (double x : t) sum += x;
+  std::sort(t.begin(), t.end());
+  c.median_ms = percentile(t, 0.5);
+  c.p99_ms = percentile(t, 0.99);
+  c.max_ms = t.back();
+  c.mean_ms = sum / static_cast<double>(t.size());
+  c.episodes_per_s = 1e3 / c.mean_ms;
+  c.us_per_frame = c.frames > 0 ? c.median_ms * 1e3 / c.frames : 0.0;
+  c.allocs_per_episode = static_cast<double>(a1 - a0) / static_cast<double>(o.episodes);
+  g_episodes.push_back(c);
+}
+
 // ---------------------------------------------------------------- output ---
 std::string cpu_model() {
   std::ifstream f("/proc/cpuinfo");
@@ -737,6 +813,29 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (has(o.sections, "episode")) {
+    std::fprintf(table,
+                 "\nSimulated episodes: 600 frames (10 s at 60 Hz), Afma6 camera with distortion on the Afma6-like "
+                 "gantry, stacked(4), one core\n");
+    std::fprintf(table, "  %-44s %7s %9s %9s %9s %9s %10s %9s %7s %s\n", "case", "frames", "median", "p99", "max",
+                 "mean", "episodes/s", "us/frame", "allocs", "outcome");
+    std::fprintf(table, "  %-44s %7s %9s %9s %9s %9s %10s %9s %7s\n", "", "", "ms", "ms", "ms", "ms", "", "", "/run");
+    using ibvs::sim::DepthMode;
+    const std::pair<const char*, std::function<void()>> cases[] = {
+        {"damped LLT + diagnostics, exact depth", [&] { bench_episode("damped LLT + diagnostics, exact depth", o.damping, 0.0, 0, DepthMode::exact, o); }},
+        {"undamped QR+SVD, exact depth", [&] { bench_episode("undamped QR+SVD, exact depth", 0.0, 0.0, 0, DepthMode::exact, o); }},
+        {"damped, noise 0.5 px, latency 1, pose depth", [&] { bench_episode("damped, noise 0.5 px, latency 1, pose depth", o.damping, 0.5, 1, DepthMode::pose, o); }},
+    };
+    for (const auto& c : cases) {
+      c.second();
+      const EpisodeCase& e = g_episodes.back();
+      std::fprintf(table, "  %-44s %7d %9.3f %9.3f %9.3f %9.3f %10.0f %9.3f %7.2g %s\n", e.name.c_str(), e.frames,
+                   e.median_ms, e.p99_ms, e.max_ms, e.mean_ms, e.episodes_per_s, e.us_per_frame, e.allocs_per_episode,
+                   e.outcome.c_str());
+      std::fflush(table);
+    }
+  }
+
   if (o.json) {
     std::string s = "{\"benchmark\":\"ibvs-bench\",\"version\":\"" IBVS_VERSION "\",\"cpu\":\"" +
                     json_escape(cpu_model()) + "\",\"timer_overhead_ns\":" + std::to_string(g_timer_ns) +
@@ -764,6 +863,19 @@ int main(int argc, char** argv) {
                     i ? "," : "", p.rate_hz, p.duration_s, p.layout.c_str(), p.n, p.spin_us,
                     p.realtime ? "true" : "false", p.steps, p.misses, p.late_median_us, p.late_p99_us,
                     p.late_max_us, p.step_median_us, p.step_p99_us, p.step_max_us);
+      s += buf;
+    }
+    s += "],\"episodes\":[";
+    for (std::size_t i = 0; i < g_episodes.size(); ++i) {
+      const EpisodeCase& e = g_episodes[i];
+      std::snprintf(buf, sizeof buf,
+                    "%s{\"name\":\"%s\",\"layout\":\"%s\",\"n\":%d,\"damping\":%g,\"noise_px\":%g,\"latency\":%d,"
+                    "\"depth\":\"%s\",\"frames\":%d,\"outcome\":\"%s\",\"episodes\":%ld,\"median_ms\":%.4f,"
+                    "\"p99_ms\":%.4f,\"max_ms\":%.4f,\"mean_ms\":%.4f,\"episodes_per_s\":%.1f,\"us_per_frame\":%.4f,"
+                    "\"allocs_per_episode\":%g}",
+                    i ? "," : "", json_escape(e.name).c_str(), e.layout.c_str(), e.n, e.damping, e.noise, e.latency,
+                    e.depth.c_str(), e.frames, e.outcome.c_str(), e.episodes, e.median_ms, e.p99_ms, e.max_ms,
+                    e.mean_ms, e.episodes_per_s, e.us_per_frame, e.allocs_per_episode);
       s += buf;
     }
     s += "]}";

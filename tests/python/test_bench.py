@@ -88,16 +88,17 @@ def cpp_bench() -> str:
 
 def test_cpp_bench_table(cpp_bench: str) -> None:
     out = subprocess.run([cpp_bench, "--iterations", "300", "--layout", "cartesian,stacked", "--n", "4",
-                          "--paced", "1000", "--duration", "0.05", "--sections", "components,growth,paced"],
+                          "--paced", "1000", "--duration", "0.05", "--episodes", "2",
+                          "--sections", "components,growth,paced,episode"],
                          check=True, capture_output=True, text=True, timeout=300).stdout
     for what in ("median", "p99", "steps/s", "Servo::update damped", "Eigen floor", "jacobian", "solve damped",
-                 "stacked(4) 16x6", "cartesian(4) 8x6", "misses"):
+                 "stacked(4) 16x6", "cartesian(4) 8x6", "misses", "episodes/s"):
         assert what in out, what
 
 
 def test_cpp_bench_json(cpp_bench: str) -> None:
     out = subprocess.run([cpp_bench, "--iterations", "300", "--layout", "stacked", "--n", "4,8", "--paced", "60,1000",
-                          "--duration", "0.05", "--sections", "components,growth,paced", "--json"],
+                          "--duration", "0.05", "--episodes", "2", "--sections", "components,growth,paced,episode", "--json"],
                          check=True, capture_output=True, text=True, timeout=300).stdout
     res = json.loads(out)
     assert res["benchmark"] == "ibvs-bench" and res["version"] == ibvs.__version__
@@ -111,6 +112,10 @@ def test_cpp_bench_json(cpp_bench: str) -> None:
     assert [p["rate_hz"] for p in res["paced"]] == [60, 1000]
     for p in res["paced"]:
         assert p["steps"] >= 1 and p["misses"] >= 0 and p["lateness_max_us"] >= p["lateness_p99_us"]
+    assert len(res["episodes"]) == 3
+    for e in res["episodes"]:
+        assert e["frames"] == 600 and e["outcome"] == "timeout"  # tolerance 0: the whole 10 s
+        assert e["allocs_per_episode"] == 0 and 0.0 < e["median_ms"] <= e["max_ms"]
 
 
 def test_cpp_bench_rejects_bad_options(cpp_bench: str) -> None:
