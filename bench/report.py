@@ -28,8 +28,10 @@ def _group(runs: list[dict], list_key: str, id_keys: tuple[str, ...]) -> dict[tu
 
 
 def cpp_tables(runs: list[dict]) -> str:
-    lines = [f"C++ `ibvs-bench`: median of {len(runs)} runs, {runs[0]['iterations']} iterations per case, "
-             f"{runs[0]['cpu']}", ""]
+    timed = [r for r in runs if r.get("cases")]
+    head = timed[0] if timed else runs[0]
+    lines = [(f"C++ `ibvs-bench`: median of {len(timed)} runs, {head['iterations']} iterations per case, "
+              f"{head['cpu']}"), ""]
     cases = _group(runs, "cases", ("section", "name", "layout", "n", "rows"))
     for section in ("components", "growth"):
         rows = [(k, v) for k, v in cases.items() if k[0] == section]
@@ -44,8 +46,9 @@ def cpp_tables(runs: list[dict]) -> str:
         lines.append("")
     paced = _group(runs, "paced", ("rate_hz", "realtime", "spin_us"))
     if paced:
-        lines += ["### paced", "", "| rate | duration | priority | steps | misses | lateness median µs | p99 µs | max µs "
-                  "| step median µs | step max µs |", "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
+        lines += ["### paced", "", ("| rate | duration | priority | steps | misses | lateness median µs | p99 µs "
+                                    "| max µs | step median µs | step max µs |"),
+                  "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
         for (rate, rt, spin), v in paced.items():
             lines.append(f"| {rate:g} Hz | {v[0]['duration_s']:g} s | {'SCHED_FIFO' if rt else 'normal'}"
                          f"{f', spin {spin:g} µs' if spin else ''} | {sum(c['steps'] for c in v)} | "
@@ -67,8 +70,8 @@ def cpp_tables(runs: list[dict]) -> str:
 
 def py_tables(runs: list[dict]) -> str:
     r0 = runs[0]
-    lines = [f"Python `python -m ibvs.bench`: median of {len(runs)} runs, {r0['iterations']} iterations per case, "
-             f"Python {r0['python']}, numpy {r0['numpy']}", "",
+    lines = [(f"Python `python -m ibvs.bench`: median of {len(runs)} runs, {r0['iterations']} iterations per case, "
+              f"Python {r0['python']}, numpy {r0['numpy']}"), "",
              "| case | layout | median µs | p99 µs | max µs | calls/s | numpy / ibvs |", "|---|---|---:|---:|---:|---:|---:|"]
     for (name, layout, n, m), v in _group(runs, "cases", ("name", "layout", "n", "rows")).items():
         ratio = f"{_median(v, 'numpy_ratio'):.0f}×" if "numpy_ratio" in v[0] and v[0]["implementation"] == "ibvs" else ""
@@ -78,10 +81,13 @@ def py_tables(runs: list[dict]) -> str:
 
 
 def main(paths: list[str]) -> int:
-    runs = [json.loads(open(p).read().strip().splitlines()[-1]) for p in paths]
+    runs = []
+    for p in paths:
+        with open(p) as f:
+            runs.append(json.loads(f.read().strip().splitlines()[-1]))
     cpp = [r for r in runs if r.get("benchmark") == "ibvs-bench"]
     py = [r for r in runs if r.get("benchmark") == "ibvs.bench"]
-    # Paced-only or episode-only runs are merged into the tables of the full runs.
+    # Paced-only and episode-only runs are merged into the tables of the full runs.
     if cpp:
         print(cpp_tables(cpp))
     if py:

@@ -5,10 +5,9 @@ Run with the build's bench dir on sys.path:  PYTHONPATH=build/bench-cpp/bench py
 
 import timeit
 
-import numpy as np
-
 import ibvs  # first: registers Layout, which the prototype takes
-import ibvs_py_proto as proto  # noqa: E402
+import ibvs_py_proto as proto
+import numpy as np
 from ibvs.bench import make_frames
 
 uv, z, uvd = make_frames(4, 1)[0]
@@ -21,7 +20,7 @@ assert np.allclose(p.update_velocity(uv, z, uvd), real.update(uv, z, uvd).veloci
 assert np.allclose(p.update_eager(uv, z, uvd).velocity, real.update(uv, z, uvd).velocity, rtol=0, atol=1e-15)
 r = real.update(uv, z, uvd)
 e = p.update_eager(uv, z, uvd)
-g = dict(real=real, p=p, uv=uv, z=z, uvd=uvd, r=r, e=e, L=L)
+g = {"real": real, "p": p, "uv": uv, "z": z, "uvd": uvd, "r": r, "e": e, "L": L}
 rows = [
     ("ibvs: servo.update(uv, z, uvd)", "real.update(uv, z, uvd)"),
     ("ibvs: servo.update(uv=uv, depth=z, uv_desired=uvd)", "real.update(uv=uv, depth=z, uv_desired=uvd)"),

@@ -26,7 +26,7 @@ import numpy as np
 
 import ibvs
 
-__all__ = ["main", "numpy_step", "make_frames"]
+__all__ = ["main", "make_frames", "numpy_step"]
 
 LAYOUTS = ("cartesian", "polar", "stacked")
 FRAMES = 64
@@ -43,34 +43,51 @@ def numpy_step(uv: np.ndarray, z: np.ndarray, uv_desired: np.ndarray, kind: str,
     """One damped IBVS step in vectorised numpy (the reference the C++ is compared to).
 
     uv, uv_desired (N, 2); z (N,); kind "cartesian", "polar" or "stacked". Returns the twist (6,).
+    J is filled column by column in one preallocated (N, blocks, 2, 6) array (about twice as fast
+    as stacking per-row arrays), then A = J^T J + damping^2 I is solved by np.linalg.solve.
     """
+    n = uv.shape[0]
     u, v = uv[:, 0], uv[:, 1]
     iz = 1.0 / z
-    zero = np.zeros_like(u)
-    blocks = []
-    errors = []
-    if kind in ("cartesian", "stacked"):
-        jc = np.stack([
-            np.stack([-iz, zero, u * iz, u * v, -(1.0 + u * u), v], axis=-1),
-            np.stack([zero, -iz, v * iz, 1.0 + v * v, -u * v, -u], axis=-1),
-        ], axis=1)  # (N, 2, 6)
-        blocks.append(jc)
-        errors.append(uv - uv_desired)  # (N, 2)
-    if kind in ("polar", "stacked"):
+    cart, pol = kind != "polar", kind != "cartesian"
+    nb = int(cart) + int(pol)
+    J = np.zeros((n, nb, 2, 6))
+    e = np.empty((n, nb, 2))
+    if cart:  # eq. (3)
+        jc = J[:, 0]
+        jc[:, 0, 0] = -iz
+        jc[:, 0, 2] = u * iz
+        jc[:, 0, 3] = u * v
+        jc[:, 0, 4] = -1.0 - u * u
+        jc[:, 0, 5] = v
+        jc[:, 1, 1] = -iz
+        jc[:, 1, 2] = v * iz
+        jc[:, 1, 3] = 1.0 + v * v
+        jc[:, 1, 4] = -u * v
+        jc[:, 1, 5] = -u
+        e[:, 0] = uv - uv_desired
+    if pol:  # -(eq. 7)
+        jp = J[:, nb - 1]
         r = np.hypot(u, v)
-        c, s, ir = u / r, v / r, 1.0 / r
-        k = 1.0 + r * r
-        jp = np.stack([
-            np.stack([-c * iz, -s * iz, r * iz, k * s, -k * c, zero], axis=-1),
-            np.stack([s * ir * iz, -c * ir * iz, zero, c * ir, s * ir, zero - 1.0], axis=-1),
-        ], axis=1)
-        blocks.append(jp)
+        ir = 1.0 / r
+        c, s, k = u * ir, v * ir, 1.0 + r * r
+        jp[:, 0, 0] = -c * iz
+        jp[:, 0, 1] = -s * iz
+        jp[:, 0, 2] = r * iz
+        jp[:, 0, 3] = k * s
+        jp[:, 0, 4] = -k * c
+        jp[:, 1, 0] = s * ir * iz
+        jp[:, 1, 1] = -c * ir * iz
+        jp[:, 1, 3] = c * ir
+        jp[:, 1, 4] = s * ir
+        jp[:, 1, 5] = -1.0
         ud, vd = uv_desired[:, 0], uv_desired[:, 1]
-        errors.append(np.stack([r - np.hypot(ud, vd), _wrap(np.arctan2(v, u) - np.arctan2(vd, ud))], axis=-1))
-    J = np.concatenate(blocks, axis=1).reshape(-1, 6)  # per point: its blocks in row order
-    e = np.concatenate(errors, axis=1).reshape(-1)
+        e[:, nb - 1, 0] = r - np.hypot(ud, vd)
+        e[:, nb - 1, 1] = _wrap(np.arctan2(v, u) - np.arctan2(vd, ud))
+    J = J.reshape(-1, 6)  # per point: its blocks in row order (Layout.cartesian/polar/stacked)
+    e = e.reshape(-1)
     A = J.T @ J
-    A[np.diag_indices(6)] += damping * damping
+    A.flat[::7] += damping * damping
     return -gain * np.linalg.solve(A, J.T @ e)
 
 
@@ -164,13 +181,13 @@ def run(iterations: int = 20000, n: int = 4, damping: float = 0.01, gain: float 
         servo_svd = ibvs.Servo(layout, gain=gain, damping=0.0)
         upd, upd_diag, upd_svd = servo.update, servo_diag.update, servo_svd.update
         fast = add("ibvs Servo.update damped", kind, layout.rows,
-                   lambda k: upd(*frames[k]), implementation="ibvs", twist_difference=difference)
+                   lambda k, upd=upd: upd(*frames[k]), implementation="ibvs", twist_difference=difference)
         add("ibvs Servo.update damped, .velocity", kind, layout.rows,
-            lambda k: upd(*frames[k]).velocity, implementation="ibvs")
+            lambda k, upd=upd: upd(*frames[k]).velocity, implementation="ibvs")
         add("ibvs Servo.update damped + diagnostics", kind, layout.rows,
-            lambda k: upd_diag(*frames[k]), implementation="ibvs")
+            lambda k, upd=upd_diag: upd(*frames[k]), implementation="ibvs")
         add("ibvs Servo.update undamped (SVD)", kind, layout.rows,
-            lambda k: upd_svd(*frames[k]), implementation="ibvs")
+            lambda k, upd=upd_svd: upd(*frames[k]), implementation="ibvs")
         ref = add("numpy vectorised, damped normal eqs", kind, layout.rows,
                   lambda k, kind=kind: numpy_step(*frames[k], kind, damping, gain), implementation="numpy")
         ratio = ref["median_us"] / fast["median_us"] if fast["median_us"] > 0 else math.inf
@@ -211,10 +228,10 @@ def _cpu_model() -> str:
 
 def format_table(res: dict[str, Any]) -> str:
     lines = [
-        f"ibvs.bench {res['version']} | {res['processor']} | Python {res['python']} | numpy {res['numpy']} | "
-        f"perf_counter_ns cost {res['timer_overhead_ns']:.0f} ns (subtracted)",
-        f"N = {res['cases'][0]['n']} points, damping {res['damping']}, gain {res['gain']}, "
-        f"{res['iterations']} iterations; times per call in microseconds",
+        (f"ibvs.bench {res['version']} | {res['processor']} | Python {res['python']} | numpy {res['numpy']} | "
+         f"perf_counter_ns cost {res['timer_overhead_ns']:.0f} ns (subtracted)"),
+        (f"N = {res['cases'][0]['n']} points, damping {res['damping']}, gain {res['gain']}, "
+         f"{res['iterations']} iterations; times per call in microseconds"),
         "",
         f"  {'case':<48} {'layout':<16} {'median':>8} {'p99':>8} {'max':>8} {'calls/s':>10} {'numpy/ibvs':>10}",
     ]
