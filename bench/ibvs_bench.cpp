@@ -49,11 +49,20 @@
 // ---- allocation counter -----------------------------------------------------
 // With glibc, malloc/calloc/realloc are interposed here, so that every heap
 // allocation of the process is counted: operator new and Eigen's own
-// aligned_malloc both end in malloc. Elsewhere only operator new is counted.
+// aligned_malloc both end in malloc. Elsewhere (and under sanitizers, which
+// own malloc) only operator new is counted.
 namespace {
 std::atomic<long> g_allocations{0};
 }
-#if defined(__GLIBC__)
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(memory_sanitizer)
+#define IBVS_BENCH_SANITIZED 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define IBVS_BENCH_SANITIZED 1
+#endif
+#if defined(__GLIBC__) && !defined(IBVS_BENCH_SANITIZED)
 extern "C" {
 void* __libc_malloc(std::size_t);
 void* __libc_calloc(std::size_t, std::size_t);

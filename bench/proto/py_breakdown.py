@@ -1,6 +1,7 @@
 """Where the time of a Python Servo.update call goes (prototype; docs/benchmarks.md).
 
-Run with the build's bench dir on sys.path:  PYTHONPATH=build/bench-cpp/bench python bench/proto/py_breakdown.py
+Build with -DIBVS_BUILD_BENCH_PROTO=ON, then with the build's bench dir on sys.path:
+    PYTHONPATH=build/bench-cpp/bench python bench/proto/py_breakdown.py
 """
 
 import timeit

@@ -3,7 +3,7 @@
 // proposed in docs/benchmarks.md switchable, timed against the real
 // ibvs::Servo::update on the same frames and checked to give the same twist.
 //
-//   bench_servo_proto [iterations]
+//   cmake -DIBVS_BUILD_BENCH_PROTO=ON ...; bench_servo_proto [iterations]
 #include "ibvs/ibvs.hpp"
 
 #include <Eigen/Cholesky>
@@ -26,7 +26,7 @@ using Clock = std::chrono::steady_clock;
 template <class T>
 inline void keep(T const& v) { asm volatile("" : : "r,m"(v) : "memory"); }
 
-enum class Diag { off, eig, iterate };
+enum class Diag { off, eig };
 
 template <int Rows>
 struct Proto {
@@ -99,35 +99,12 @@ struct Proto {
       smin = std::sqrt(std::max(eig.eigenvalues()(0), 0.0));
       smax = std::sqrt(std::max(eig.eigenvalues()(5), 0.0));
     }
-    const double top = diag == Diag::iterate ? power_max() : 0.0;
     A.diagonal().array() += lambda * lambda;
     llt.compute(A);
     Twist x;
     x.noalias() = J.transpose().lazyProduct(e);
     llt.solveInPlace(x);
-    if (diag == Diag::iterate) {
-      smax = std::sqrt(top);
-      smin = std::sqrt(std::max(inverse_min() - lambda * lambda, 0.0));
-    }
     return x;
-  }
-
-  // sigma_max^2: power iteration on J^T J, Rayleigh quotient after 8 steps.
-  double power_max() const noexcept {
-    Twist q = Twist::Ones();
-    for (int i = 0; i < 8; ++i) q = (A * q).normalized();
-    return q.dot(A * q);
-  }
-  // sigma_min^2 + lambda^2: inverse iteration with the Cholesky factor just computed.
-  double inverse_min() const noexcept {
-    Twist q = Twist::Ones();
-    for (int i = 0; i < 6; ++i) {
-      llt.solveInPlace(q);
-      q.normalize();
-    }
-    const Matrix6& L = llt.matrixLLT();
-    const Twist y = L.template triangularView<Eigen::Lower>().transpose() * q;  // q^T A q = |L^T q|^2
-    return y.squaredNorm();
   }
 
   Twist update(const Layout& layout, double gain, double lambda, double rmin, const Eigen::Ref<const Points>& uv,
