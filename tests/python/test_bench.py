@@ -106,7 +106,7 @@ def test_cpp_bench_json(cpp_bench: str) -> None:
     assert {c["n"] for c in cases if c["section"] == "growth"} == {4, 8}
     for c in cases:
         assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
-        if c["name"].startswith("Servo::update") and (c["damping"] > 0 or c["rows"] in (8, 16)):
+        if c["name"].startswith("Servo::update"):
             assert c["allocs_per_call"] == 0, c  # the real-time path allocates nothing
     assert [p["rate_hz"] for p in res["paced"]] == [60, 1000]
     for p in res["paced"]:
@@ -117,11 +117,11 @@ def test_cpp_bench_json(cpp_bench: str) -> None:
         assert e["allocs_per_episode"] == 0 and 0.0 < e["median_ms"] <= e["max_ms"]
 
 
-@pytest.mark.xfail(strict=True, reason="Servo::update with damping = 0 and a dynamic row count (not 8 or 16) "
-                   "calls malloc 12 times per step inside Eigen's HouseholderQR (docs/benchmarks.md)")
 def test_cpp_bench_undamped_dynamic_kernel_allocates_nothing(cpp_bench: str) -> None:
-    out = subprocess.run([cpp_bench, "--iterations", "200", "--layout", "stacked", "--n", "8", "--sections", "growth",
-                          "--json"], check=True, capture_output=True, text=True, timeout=300).stdout
+    # Rows 32 and 256 take the dynamic kernel; its damping = 0 (QR + SVD) route once called malloc
+    # 12 times per step inside Eigen's Householder QR (found by ibvs-bench's malloc counter).
+    out = subprocess.run([cpp_bench, "--iterations", "200", "--layout", "stacked", "--n", "8,64", "--sections",
+                          "growth", "--json"], check=True, capture_output=True, text=True, timeout=300).stdout
     for c in json.loads(out)["cases"]:
         assert c["allocs_per_call"] == 0, c
 
