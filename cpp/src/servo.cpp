@@ -20,13 +20,15 @@ namespace {
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 
 // Workspace for one row count. Rows is 8 or 16 (the paper's 4 points, 2N and
-// 4N rows: stack storage, fully unrolled products) or Dynamic. The stored
-// Jacobian has max(M, 6) rows; rows past M stay zero so that the QR below is
-// always of a tall matrix ([J; 0]+ = [J+, 0], so the solution is unchanged).
-template <int Rows>
+// 4N rows: fully unrolled products) or Dynamic with at most MaxRows rows. A
+// compile-time bound keeps Eigen's internal temporaries (e.g. inside the
+// Householder QR) on the stack; an unbounded dynamic QR allocates in compute().
+// The stored Jacobian has max(M, 6) rows; rows past M stay zero so that the QR
+// below is always of a tall matrix ([J; 0]+ = [J+, 0]: the solution is unchanged).
+template <int Rows, int MaxRows = Rows>
 struct Work {
-  using Jac = Eigen::Matrix<double, Rows, 6>;
-  using Vec = Eigen::Matrix<double, Rows, 1>;
+  using Jac = Eigen::Matrix<double, Rows, 6, Eigen::ColMajor, MaxRows, 6>;
+  using Vec = Eigen::Matrix<double, Rows, 1, Eigen::ColMajor, MaxRows, 1>;
 
   explicit Work(Eigen::Index m)
       : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
@@ -127,15 +129,19 @@ bool finite_positive(const Eigen::Ref<const Eigen::VectorXd>& z) noexcept {
 
 struct Servo::Kernel {
   // Built in place (the workspaces are large and never move).
-  std::variant<std::monostate, Work<8>, Work<16>, Work<Eigen::Dynamic>> work;
+  std::variant<std::monostate, Work<8>, Work<16>, Work<Eigen::Dynamic, max_realtime_rows>,
+               Work<Eigen::Dynamic, Eigen::Dynamic>>
+      work;
 
   explicit Kernel(int rows) {
     if (rows == 8)
       work.emplace<Work<8>>(8);
     else if (rows == 16)
       work.emplace<Work<16>>(16);
+    else if (rows <= max_realtime_rows)
+      work.emplace<Work<Eigen::Dynamic, max_realtime_rows>>(rows);
     else
-      work.emplace<Work<Eigen::Dynamic>>(rows);
+      work.emplace<Work<Eigen::Dynamic, Eigen::Dynamic>>(rows);
   }
 };
 

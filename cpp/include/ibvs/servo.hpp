@@ -61,6 +61,11 @@ struct ServoOutput {
   int polar_fallbacks = 0;         ///< polar blocks computed as Cartesian (r < polar_min_radius)
 };
 
+/// Largest layout (rows) whose update() is guaranteed allocation-free on every
+/// route: 256 rows = 64 points stacked. Larger layouts work, but the
+/// damping = 0 (QR/SVD) route may then use the heap.
+inline constexpr int max_realtime_rows = 256;
+
 /// The control law. Build once per layout; call update() every frame.
 ///
 /// Pseudoinverse route: damping > 0 solves the 6x6 damped normal equations
