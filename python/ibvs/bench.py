@@ -254,6 +254,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
+        argv = argv[1:]
     args = build_parser().parse_args(argv)
     if args.iterations < 1 or args.n < 1 or not args.damping > 0 or not args.gain > 0:
         build_parser().error("need iterations >= 1, n >= 1, damping > 0, gain > 0")

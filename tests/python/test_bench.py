@@ -49,6 +49,11 @@ def test_python_bench_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert "numpy vectorised" in out and "ibvs Servo.update damped" in out
 
 
+def test_python_bench_accepts_forwarded_separator(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench.main(["--", "--iterations", "50", "--json"]) == 0  # `ibvs bench -- --iterations 50 --json`
+    assert json.loads(capsys.readouterr().out)["iterations"] == 50
+
+
 def test_python_bench_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert bench.main(["--iterations", "200", "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
