@@ -55,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run every experiment of the paper (Figs. 1-8), write PNG figures, summary.md and "
                                    "summary.csv, and print the summary table.")
     r.add_argument("--out", type=Path, default=Path("ibvs-results"), help="output directory (default ./ibvs-results)")
-    r.add_argument("--quick", action="store_true", help="shorter runs and smaller figures (for CI)")
+    r.add_argument("--quick", action="store_true", help="small, fast figures (for CI); the simulations are the same")
 
     cases = sorted({c for w in CASES.values() for c in w})
     one = sub.add_parser("run", help="simulate one episode and print its status and metrics",

@@ -168,7 +168,7 @@ def image_limits_figure(path: str, half_width: float = 0.3, dpi: int = 90) -> di
     border = square_perimeter_r(th, half_width)
     paths = {
         "A→B": ((0.12, -2.6), (0.27, 1.2)),  # inside the inscribed circle: always feasible
-        "C→D": ((0.40, 0.65), (0.40, -0.65)),  # two corners: the straight polar line leaves the image
+        "C→D": ((0.40, 0.75), (0.40, -0.75)),  # two corners: the straight polar line leaves the image
     }
     inside = {}
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 5.2), gridspec_kw={"width_ratios": [1.6, 1]})
