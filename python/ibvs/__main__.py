@@ -75,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="time the control step through the bindings next to numpy",
                        description="Time the control step through the bindings next to a numpy reference.")
-    b.add_argument("args", nargs=argparse.REMAINDER, help="arguments of python -m ibvs.bench")
+    b.add_argument("args", nargs="*", help="options of python -m ibvs.bench (see python -m ibvs.bench --help)")
     return p
 
 
@@ -103,6 +103,12 @@ def _run(args, parser) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"] and not {"-h", "--help"} & set(argv[1:2]):
+        # Every option after `bench` belongs to python -m ibvs.bench (argparse's REMAINDER drops `--x`).
+        from . import bench
+
+        return bench.main(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.cmake_dir:
@@ -115,10 +121,6 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command == "run":
         return _run(args, parser)
-    if args.command == "bench":
-        from . import bench
-
-        return bench.main(args.args)
     parser.print_help()
     return 0
 

@@ -43,6 +43,11 @@ def test_bad_arguments_exit_2_with_a_reason(args, word):
     assert word in r.stderr.strip().splitlines()[-1]
 
 
+def test_bench_forwards_its_options(capsys):
+    assert main(["bench", "--iterations", "200"]) == 0
+    assert "numpy" in capsys.readouterr().out
+
+
 def test_help_on_every_subcommand():
     for sub in ["reproduce", "run", "bench"]:
         r = cli(sub, "--help")
@@ -71,7 +76,8 @@ def test_reproduce_quick_end_to_end(tmp_path):
     pngs = sorted(p.name for p in tmp_path.glob("*.png"))
     assert "fig4_image_limits.png" in pngs and len(pngs) == 17
     assert (tmp_path / "summary.md").read_text().count("\n|") >= 17
-    rows = {(x["world"], x["case"], x["scheme"]): x for x in csv.DictReader(open(tmp_path / "summary.csv"))}
+    with open(tmp_path / "summary.csv", newline="") as f:
+        rows = {(x["world"], x["case"], x["scheme"]): x for x in csv.DictReader(f)}
     assert len(rows) == 16
     # The paper's claims, read back from the summary.
     assert rows[("free", "z-rotation", "polar")]["status"] == "converged"
