@@ -22,6 +22,12 @@ def test_python_example_is_the_quickstart_and_runs(capsys):
     assert out.startswith("status 0 velocity") and len(out.split()) == 9
 
 
+def test_every_python_block_runs(capsys):
+    for code in blocks("python"):
+        exec(compile(code, "README.md", "exec"), {})
+    assert "converged" in capsys.readouterr().out
+
+
 def test_cpp_example_is_the_consumer_quickstart():
     assert (ROOT / "tests/consumer/quickstart.cpp").read_text() in blocks("cpp")
 
