@@ -86,7 +86,8 @@ void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
   Eigen::Index row = 0;
   for (const Block& b : layout.blocks()) {
     const double u = uv(0, b.point), v = uv(1, b.point), z = depth(b.point);
-    const bool polar = b.representation == Representation::polar && std::hypot(u, v) >= polar_min_radius;
+    const bool polar =
+        b.representation == Representation::polar && !polar_falls_back(u * u + v * v, polar_min_radius);
     J.middleRows<2>(row) = polar ? polar_jacobian(u, v, z) : cartesian_jacobian(u, v, z);
     row += 2;
   }

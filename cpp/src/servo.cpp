@@ -47,6 +47,16 @@ struct Work {
   Eigen::HouseholderQR<Jac> qr;
   Eigen::JacobiSVD<Matrix6> svd;
 
+  // Writes rows (row, row+1) of J as the chosen interaction matrix.
+  template <class Current, class Desired>
+  void put(Eigen::Index row, InteractionMatrix which, const Current& cur, const Desired& des) noexcept {
+    switch (which) {
+      case InteractionMatrix::current: J.template middleRows<2>(row) = cur(); break;
+      case InteractionMatrix::desired: J.template middleRows<2>(row) = des(); break;
+      case InteractionMatrix::mean: J.template middleRows<2>(row) = 0.5 * (cur() + des()); break;
+    }
+  }
+
   // Fills J and e for this frame; returns the number of polar fallbacks.
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
@@ -55,29 +65,30 @@ struct Work {
     Eigen::Index row = 0;
     for (const Block& b : layout.blocks()) {
       const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+      const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
       bool polar = b.representation == Representation::polar;
-      if (polar && (std::hypot(u, v) < o.polar_min_radius || std::hypot(ud, vd) < o.polar_min_radius)) {
+      if (polar && (polar_falls_back(r2, o.polar_min_radius) || polar_falls_back(rd2, o.polar_min_radius))) {
         polar = false;
         ++fallbacks;
       }
-      // Error f (-) f* (eq. 13): theta difference wrapped into (-pi, pi].
       if (polar) {
-        const Eigen::Vector2d f = polar_features(u, v), fd = polar_features(ud, vd);
-        e(row) = f(0) - fd(0);
-        e(row + 1) = wrap_angle(f(1) - fd(1));
+        // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
+        const double r = std::sqrt(r2), rd = std::sqrt(rd2);
+        e(row) = r - rd;
+        // Both angles lie in (-pi, pi], so one turn at most brings the difference into (-pi, pi].
+        double dth = std::atan2(v, u) - std::atan2(vd, ud);
+        if (dth > pi) dth -= 2.0 * pi;
+        else if (dth <= -pi) dth += 2.0 * pi;
+        e(row + 1) = dth;
+        const auto cur = [&] { return polar_jacobian(r, u / r, v / r, z(b.point)); };
+        const auto des = [&] { return polar_jacobian(rd, ud / rd, vd / rd, zd(b.point)); };
+        put(row, o.jacobian, cur, des);
       } else {
         e(row) = u - ud;
         e(row + 1) = v - vd;
-      }
-      const auto jac = [polar](double pu, double pv, double pz) {
-        return polar ? polar_jacobian(pu, pv, pz) : cartesian_jacobian(pu, pv, pz);
-      };
-      switch (o.jacobian) {
-        case InteractionMatrix::current: J.template middleRows<2>(row) = jac(u, v, z(b.point)); break;
-        case InteractionMatrix::desired: J.template middleRows<2>(row) = jac(ud, vd, zd(b.point)); break;
-        case InteractionMatrix::mean:
-          J.template middleRows<2>(row) = 0.5 * (jac(u, v, z(b.point)) + jac(ud, vd, zd(b.point)));
-          break;
+        const auto cur = [&] { return cartesian_jacobian(u, v, z(b.point)); };
+        const auto des = [&] { return cartesian_jacobian(ud, vd, zd(b.point)); };
+        put(row, o.jacobian, cur, des);
       }
       row += 2;
     }

@@ -123,6 +123,22 @@ void principal_point() {
   }
 }
 
+// polar_min_radius = 0 still never divides by r = 0: the principal point itself falls back.
+void zero_policy_radius() {
+  const Layout L = Layout::polar(4);
+  ServoOptions o;
+  o.polar_min_radius = 0.0;
+  Servo servo(L, o);
+  ServoOutput out(L);
+  ServoInput in(L);
+  in.uv << 0.0, 0.1, -0.1, 0.1, 0.0, 0.1, -0.1, -0.1;
+  in.uv_desired << 1e-9, 0.12, -0.12, 0.12, 0.0, 0.12, -0.12, -0.12;
+  CHECK(servo.update(in, out) == Status::ok);
+  CHECK(out.velocity.allFinite() && out.jacobian.allFinite() && out.polar_fallbacks == 1);
+  Points uv = in.uv;
+  CHECK(jacobian(L, uv, Eigen::Vector4d::Ones(), 0.0).allFinite());
+}
+
 void bad_input() {
   CHECK_THROWS(Servo(Layout::cartesian(4), ServoOptions{-1.0}));
   CHECK_THROWS(Servo(Layout::cartesian(4), ServoOptions{0.0}));
@@ -219,6 +235,7 @@ void run_tests() {
   law_matches_pinv();
   singular_mean();
   principal_point();
+  zero_policy_radius();
   bad_input();
   closed_loop();
 }

@@ -49,7 +49,7 @@ inline double wrap_angle(double a) noexcept {
 /// Polar features (r, theta) of a point (u, v); theta = atan2(v, u), so the
 /// principal point itself gives (0, 0) rather than NaN.
 inline Eigen::Vector2d polar_features(double u, double v) noexcept {
-  return {std::hypot(u, v), std::atan2(v, u)};
+  return {std::sqrt(u * u + v * v), std::atan2(v, u)};
 }
 
 /// Eq. (3): Jacobian of (u, v) for a point at depth z > 0.
@@ -61,19 +61,30 @@ inline Matrix26 cartesian_jacobian(double u, double v, double z) noexcept {
   return J;
 }
 
-/// -(eq. 7): Jacobian of (r, theta) for a point at depth z > 0 and radius
-/// r > 0. With c = u/r, s = v/r:
+/// -(eq. 7): Jacobian of (r, theta) for a point at depth z > 0, radius r > 0
+/// and direction (c, s) = (cos theta, sin theta) = (u/r, v/r):
 ///   dr/dt     = [ -c/z,     -s/z,    r/z, (1+r^2)s, -(1+r^2)c,  0 ] v
 ///   dtheta/dt = [ s/(rz), -c/(rz),   0,    c/r,       s/r,     -1 ] v
 /// The caller guarantees r > 0 (Layout-level code applies the r -> 0 policy).
-inline Matrix26 polar_jacobian(double u, double v, double z) noexcept {
-  const double r = std::hypot(u, v);
-  const double c = u / r, s = v / r, iz = 1.0 / z, ir = 1.0 / r;
+inline Matrix26 polar_jacobian(double r, double c, double s, double z) noexcept {
+  const double iz = 1.0 / z, ir = 1.0 / r;
   const double k = 1.0 + r * r;
   Matrix26 J;
   J << -c * iz, -s * iz, r * iz, k * s, -k * c, 0.0,  //
       s * ir * iz, -c * ir * iz, 0.0, c * ir, s * ir, -1.0;
   return J;
+}
+
+/// -(eq. 7) at the point (u, v), r = |(u, v)| > 0.
+inline Matrix26 polar_jacobian(double u, double v, double z) noexcept {
+  const double r = std::sqrt(u * u + v * v);  // normalised coordinates: no overflow to guard against
+  return polar_jacobian(r, u / r, v / r, z);
+}
+
+/// True when a polar block at squared radius r2 must use its Cartesian rows:
+/// below the policy radius, and always at the principal point itself.
+inline bool polar_falls_back(double r2, double polar_min_radius) noexcept {
+  return r2 < polar_min_radius * polar_min_radius || r2 == 0.0;
 }
 
 }  // namespace ibvs
