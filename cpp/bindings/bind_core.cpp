@@ -20,12 +20,17 @@ namespace {
 Representation representation(py::handle obj, const std::string& name) {
   if (py::isinstance<Representation>(obj)) return obj.cast<Representation>();
   if (!py::isinstance<py::str>(obj))
-    throw py::type_error(name + " must be 'cartesian' or 'polar', got " +
+    throw py::type_error(name + " must be 'cartesian', 'polar' or 'cylindrical', got " +
                          std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
   const auto s = obj.cast<std::string>();
   if (s == "cartesian") return Representation::cartesian;
   if (s == "polar") return Representation::polar;
-  throw py::value_error(name + " must be 'cartesian' or 'polar', got '" + s + "'");
+  if (s == "cylindrical") return Representation::cylindrical;
+  throw py::value_error(name + " must be 'cartesian', 'polar' or 'cylindrical', got '" + s + "'");
+}
+
+const char* representation_name(Representation r) {
+  return r == Representation::polar ? "polar" : r == Representation::cylindrical ? "cylindrical" : "cartesian";
 }
 
 InteractionMatrix interaction(const std::string& s) {
@@ -55,7 +60,7 @@ Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
   for (py::handle item : blocks) {
     const std::string where = "blocks[" + std::to_string(k++) + "]";
     if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
-      throw py::type_error(where + " must be a pair (point_index, 'cartesian' | 'polar')");
+      throw py::type_error(where + " must be a pair (point_index, 'cartesian' | 'polar' | 'cylindrical')");
     const auto pair = py::reinterpret_borrow<py::sequence>(item);
     out.push_back({int_arg(pair[0], where + "[0] (point index)"), representation(pair[1], where + "[1]")});
   }
@@ -63,6 +68,31 @@ Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
 }
 
 int n_arg(py::handle n) { return int_arg(n, "n"); }
+
+// `gain` in Python: a positive number (constant gain) or an ibvs.AdaptiveGain.
+void set_gain(ServoOptions& o, py::handle g) {
+  if (py::isinstance<AdaptiveGain>(g)) {
+    o.adaptive_gain = g.cast<AdaptiveGain>();
+    o.gain = o.adaptive_gain.at_zero;  // kept valid; unused while adaptive_gain is enabled
+    return;
+  }
+  if (py::isinstance<py::bool_>(g) || !(py::isinstance<py::float_>(g) || py::isinstance<py::int_>(g) ||
+                                         py::hasattr(g, "__float__")) || py::isinstance<py::str>(g))
+    throw py::type_error("gain must be a number or an ibvs.AdaptiveGain, got " +
+                         std::string(py::str(py::type::handle_of(g).attr("__name__"))));
+  o.gain = py::float_(py::reinterpret_borrow<py::object>(g)).cast<double>();
+  o.adaptive_gain = AdaptiveGain{};
+}
+
+py::object gain_of(const ServoOptions& o) {
+  if (o.adaptive_gain.enabled()) return py::cast(o.adaptive_gain);
+  return py::float_(o.gain);
+}
+
+std::string number(double x) {
+  std::string s = py::str(py::float_(x));
+  return s;
+}
 
 // Python face of Servo: the C++ object plus its output and depth buffers.
 struct PyServo {
@@ -107,7 +137,9 @@ void bind_core(py::module_& m) {
 
   py::enum_<Representation>(m, "Representation", "How an image point becomes two feature rows.")
       .value("cartesian", Representation::cartesian, "(u, v), Jacobian eq. (3)")
-      .value("polar", Representation::polar, "(r, theta), Jacobian -(eq. 7)");
+      .value("polar", Representation::polar, "(r, theta), Jacobian -(eq. 7)")
+      .value("cylindrical", Representation::cylindrical,
+             "(r, r theta) of Iwatsuki & Okiyama; error (r - r*, r wrap(theta - theta*))");
 
   py::enum_<Status>(m, "Status", "Outcome of Servo.update().")
       .value("ok", Status::ok)
@@ -116,7 +148,7 @@ void bind_core(py::module_& m) {
 
   py::class_<Layout>(m, "Layout", R"(Which feature blocks are stacked, in which row order.
 
-Layout(blocks, n_points=None): blocks is a sequence of (point_index, "cartesian" | "polar");
+Layout(blocks, n_points=None): blocks is a sequence of (point_index, "cartesian" | "polar" | "cylindrical");
 block k fills rows 2k and 2k+1 of the feature vector and the Jacobian.
 n_points defaults to the largest point index + 1.)")
       .def(py::init(&make_layout), py::arg("blocks"), py::arg("n_points") = py::none())
@@ -126,14 +158,16 @@ n_points defaults to the largest point index + 1.)")
                   "IBVS-P: (r_i, theta_i) for each of n points, 2n x 6.")
       .def_static("stacked", [](py::handle n) { return Layout::stacked(n_arg(n)); }, py::arg("n"),
                   "Stacked hybrid: (u_i, v_i, r_i, theta_i) for each of n points, 4n x 6.")
+      .def_static("cylindrical", [](py::handle n) { return Layout::cylindrical(n_arg(n)); }, py::arg("n"),
+                  R"((r_i, r_i theta_i) for each of n points (Iwatsuki & Okiyama), 2n x 6. Servo error per point:
+(r - r*, r wrap(theta - theta*)); rows bounded at r = 0, so no Cartesian fallback.)")
       .def_property_readonly("rows", &Layout::rows, "M, the number of feature rows (2 per block).")
       .def_property_readonly("n_points", &Layout::n_points, "N, the number of image points.")
       .def_property_readonly("blocks",
                              [](const Layout& l) {
                                py::list out;
                                for (const Block& b : l.blocks())
-                                 out.append(py::make_tuple(
-                                     b.point, b.representation == Representation::polar ? "polar" : "cartesian"));
+                                 out.append(py::make_tuple(b.point, representation_name(b.representation)));
                                return out;
                              },
                              "List of (point_index, representation) in row order.")
@@ -176,7 +210,8 @@ lies within polar_min_radius of the principal point gets its Cartesian rows (eq.
         return feature_error(layout, vector(a, "f"), vector(b, "f_desired"));
       },
       py::arg("f"), py::arg("f_desired"), py::arg("layout"),
-      "Feature error f (-) f* (M,): plain difference, theta rows wrapped into (-pi, pi] (eq. 13).");
+      R"(Feature error f (-) f* (M,): plain difference, theta rows wrapped into (-pi, pi] (eq. 13);
+cylindrical rows (r - r*, r wrap(theta - theta*)).)");
 
   m.def(
       "damped_pinv",
@@ -225,6 +260,45 @@ damped least squares (J^T J + damping^2 I)^-1 J^T for damping > 0.)");
       R"(4x4 rigid motion exp(twist^) for a twist (Tx, Ty, Tz, wx, wy, wz) applied for unit time.
 A camera moving with twist v for dt goes from T_wc to T_wc @ se3_exp(v * dt).)");
 
+  py::class_<AdaptiveGain>(m, "AdaptiveGain", R"(Gain as a function of the error norm x (ViSP's vpAdaptiveGain):
+
+  gain(x) = (at_zero - at_infinity) * exp(-(slope_at_zero / (at_zero - at_infinity)) * x) + at_infinity
+
+at_zero > 0 is the gain at x = 0, 0 < at_infinity <= at_zero the gain for large errors,
+slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(..., gain=...).)")
+      .def(py::init([](double g0, double ginf, double slope) {
+             AdaptiveGain a{g0, ginf, slope};
+             ServoOptions o;
+             o.adaptive_gain = a;
+             if (!a.enabled()) throw py::value_error("adaptive_gain.at_zero must be finite and > 0, got 0");
+             Servo::validate(o);
+             return a;
+           }),
+           py::arg("at_zero"), py::arg("at_infinity"), py::arg("slope_at_zero"))
+      .def_readonly("at_zero", &AdaptiveGain::at_zero)
+      .def_readonly("at_infinity", &AdaptiveGain::at_infinity)
+      .def_readonly("slope_at_zero", &AdaptiveGain::slope_at_zero)
+      .def(
+          "__call__",
+          [](const AdaptiveGain& a, py::handle x) -> py::object {
+            const CArray arr = as_array(x, "x");
+            py::array_t<double> out(std::vector<py::ssize_t>(arr.shape(), arr.shape() + arr.ndim()));
+            const double* src = arr.data();
+            double* dst = out.mutable_data();
+            for (py::ssize_t i = 0; i < arr.size(); ++i) {
+              if (!(src[i] >= 0.0) || !std::isfinite(src[i])) throw py::value_error("x must be finite and >= 0");
+              dst[i] = a(src[i]);
+            }
+            if (arr.ndim() == 0) return py::float_(dst[0]);
+            return std::move(out);
+          },
+          py::arg("x"), "gain(x) for an error norm (or array of them) x >= 0.")
+      .def(py::self == py::self)
+      .def("__repr__", [](const AdaptiveGain& a) {
+        return "AdaptiveGain(at_zero=" + number(a.at_zero) + ", at_infinity=" + number(a.at_infinity) +
+               ", slope_at_zero=" + number(a.slope_at_zero) + ")";
+      });
+
   py::class_<ServoOutput>(m, "ServoResult", "Result of one Servo.update().")
       .def_readonly("status", &ServoOutput::status)
       .def_readonly("velocity", &ServoOutput::velocity, "Camera twist (6,): Tx, Ty, Tz (m/s), wx, wy, wz (rad/s).")
@@ -241,6 +315,10 @@ A camera moving with twist v for dt goes from T_wc to T_wc @ se3_exp(v * dt).)")
           "sigma_max / sigma_min (inf when singular).")
       .def_readonly("polar_fallbacks", &ServoOutput::polar_fallbacks,
                     "Polar blocks computed as Cartesian this step (point within polar_min_radius of the centre).")
+      .def_readonly("gain", &ServoOutput::gain, "The gain applied this step (constant, or adaptive gain of error_norm).")
+      .def_readonly("saturated", &ServoOutput::saturated, "True when the twist was scaled down to the speed limits.")
+      .def_readonly("saturation_scale", &ServoOutput::saturation_scale,
+                    "The uniform factor in (0, 1] applied to the twist (1 when not saturated).")
       .def("__repr__", [](const ServoOutput& o) {
         return "ServoResult(status=" + std::string(py::str(py::cast(o.status))) +
                ", error_norm=" + std::to_string(o.error_norm) + ", sigma_min=" + std::to_string(o.sigma_min) + ")";
@@ -248,22 +326,28 @@ A camera moving with twist v for dt goes from T_wc to T_wc @ se3_exp(v * dt).)")
 
   py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
 
-Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True)
-  gain      gamma > 0 (1/s)
+Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
+      max_linear_speed=inf, max_angular_speed=inf)
+  gain      gamma > 0 (1/s), or an AdaptiveGain (gain as a function of the error norm)
   damping   lambda >= 0: 0 = Moore-Penrose (SVD), > 0 = damped least squares
-  jacobian  "current" J(f, z), "desired" J(f*, z*) or "mean" of the two)")
-      .def(py::init([](const Layout& layout, double gain, double damping, const std::string& jac,
-                       double polar_min_radius, bool diagnostics) {
+  jacobian  "current" J(f, z), "desired" J(f*, z*) or "mean" of the two
+  max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
+            factor so that |T| and |w| stay within them (direction kept); inf = no limit)")
+      .def(py::init([](const Layout& layout, py::handle gain, double damping, const std::string& jac,
+                       double polar_min_radius, bool diagnostics, double max_linear_speed, double max_angular_speed) {
              ServoOptions o;
-             o.gain = gain;
+             set_gain(o, gain);
              o.damping = damping;
              o.jacobian = interaction(jac);
              o.polar_min_radius = polar_min_radius;
              o.diagnostics = diagnostics;
+             o.max_linear_speed = max_linear_speed;
+             o.max_angular_speed = max_angular_speed;
              return PyServo(layout, o);
            }),
            py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
-           py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true)
+           py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true,
+           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit)
       .def("update", &PyServo::update, py::arg("uv"), py::arg("depth"), py::arg("uv_desired"),
            py::arg("depth_desired") = py::none(),
            R"(One control step.
@@ -273,12 +357,29 @@ depth, depth_desired: metres, > 0, scalar or (N,); depth_desired is needed for
 jacobian="desired" or "mean". Returns a ServoResult.)")
       .def_property_readonly("layout", [](const PyServo& s) { return s.servo.layout(); })
       .def_property(
-          "gain", [](const PyServo& s) { return s.servo.options().gain; },
-          [](PyServo& s, double g) {
+          "gain", [](const PyServo& s) { return gain_of(s.servo.options()); },
+          [](PyServo& s, py::handle g) {
             ServoOptions o = s.servo.options();
-            o.gain = g;
+            set_gain(o, g);
             s.servo.set_options(o);
-          })
+          },
+          "The constant gain (float) or the AdaptiveGain.")
+      .def_property(
+          "max_linear_speed", [](const PyServo& s) { return s.servo.options().max_linear_speed; },
+          [](PyServo& s, double x) {
+            ServoOptions o = s.servo.options();
+            o.max_linear_speed = x;
+            s.servo.set_options(o);
+          },
+          "Limit on |T| (m/s), inf = none.")
+      .def_property(
+          "max_angular_speed", [](const PyServo& s) { return s.servo.options().max_angular_speed; },
+          [](PyServo& s, double x) {
+            ServoOptions o = s.servo.options();
+            o.max_angular_speed = x;
+            s.servo.set_options(o);
+          },
+          "Limit on |w| (rad/s), inf = none.")
       .def_property(
           "damping", [](const PyServo& s) { return s.servo.options().damping; },
           [](PyServo& s, double d) {
@@ -290,7 +391,7 @@ jacobian="desired" or "mean". Returns a ServoResult.)")
       .def_property_readonly("polar_min_radius", [](const PyServo& s) { return s.servo.options().polar_min_radius; })
       .def("__repr__", [](const PyServo& s) {
         const auto& o = s.servo.options();
-        return "Servo(Layout." + s.servo.layout().describe() + ", gain=" + std::to_string(o.gain) +
+        return "Servo(Layout." + s.servo.layout().describe() + ", gain=" + std::string(py::repr(gain_of(o))) +
                ", damping=" + std::to_string(o.damping) + ", jacobian='" + interaction_name(o.jacobian) + "')";
       });
 }

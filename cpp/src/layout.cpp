@@ -8,7 +8,28 @@
 namespace ibvs {
 namespace {
 
-const char* name_of(Representation r) { return r == Representation::polar ? "polar" : "cartesian"; }
+const char* name_of(Representation r) {
+  switch (r) {
+    case Representation::polar: return "polar";
+    case Representation::cylindrical: return "cylindrical";
+    default: return "cartesian";
+  }
+}
+
+// Direction (c, s) of (u, v) at radius r; at r = 0 that of the other point
+// (ua, va) at radius ra, and (1, 0) when both are at the principal point.
+inline void direction(double u, double v, double r, double ua, double va, double ra, double& c, double& s) noexcept {
+  if (r > 0.0) {
+    c = u / r;
+    s = v / r;
+  } else if (ra > 0.0) {
+    c = ua / ra;
+    s = va / ra;
+  } else {
+    c = 1.0;
+    s = 0.0;
+  }
+}
 
 Layout uniform(int n, std::initializer_list<Representation> reps, const char* who) {
   if (n < 1) throw std::invalid_argument(std::string("ibvs: Layout.") + who + ": n must be >= 1, got " + std::to_string(n));
@@ -29,7 +50,8 @@ Layout::Layout(std::vector<Block> blocks, int n_points) : blocks_(std::move(bloc
     if (b.point < 0)
       throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] has negative point index " +
                                   std::to_string(b.point));
-    if (b.representation != Representation::cartesian && b.representation != Representation::polar)
+    if (b.representation != Representation::cartesian && b.representation != Representation::polar &&
+        b.representation != Representation::cylindrical)
       throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] has an unknown representation");
     for (std::size_t j = 0; j < k; ++j)
       if (blocks_[j].point == b.point && blocks_[j].representation == b.representation)
@@ -47,6 +69,7 @@ Layout::Layout(std::vector<Block> blocks, int n_points) : blocks_(std::move(bloc
 Layout Layout::cartesian(int n) { return uniform(n, {Representation::cartesian}, "cartesian"); }
 Layout Layout::polar(int n) { return uniform(n, {Representation::polar}, "polar"); }
 Layout Layout::stacked(int n) { return uniform(n, {Representation::cartesian, Representation::polar}, "stacked"); }
+Layout Layout::cylindrical(int n) { return uniform(n, {Representation::cylindrical}, "cylindrical"); }
 
 bool Layout::operator==(const Layout& o) const noexcept {
   if (n_points_ != o.n_points_ || blocks_.size() != o.blocks_.size()) return false;
@@ -57,9 +80,12 @@ bool Layout::operator==(const Layout& o) const noexcept {
 }
 
 std::string Layout::describe() const {
-  for (const char* kind : {"cartesian", "polar", "stacked"}) {
+  for (const char* kind : {"cartesian", "polar", "stacked", "cylindrical"}) {
     const std::string k(kind);
-    const Layout ref = k == "cartesian" ? cartesian(n_points_) : k == "polar" ? polar(n_points_) : stacked(n_points_);
+    const Layout ref = k == "cartesian" ? cartesian(n_points_)
+                       : k == "polar"   ? polar(n_points_)
+                       : k == "stacked" ? stacked(n_points_)
+                                        : cylindrical(n_points_);
     if (ref == *this) return k + "(" + std::to_string(n_points_) + ")";
   }
   std::string s = "[";
@@ -75,7 +101,11 @@ void stacked_features(const Layout& layout, const Eigen::Ref<const Points>& uv,
   Eigen::Index row = 0;
   for (const Block& b : layout.blocks()) {
     const double u = uv(0, b.point), v = uv(1, b.point);
-    f.segment<2>(row) = b.representation == Representation::polar ? polar_features(u, v) : Eigen::Vector2d(u, v);
+    switch (b.representation) {
+      case Representation::polar: f.segment<2>(row) = polar_features(u, v); break;
+      case Representation::cylindrical: f.segment<2>(row) = cylindrical_features(u, v); break;
+      default: f.segment<2>(row) = Eigen::Vector2d(u, v); break;
+    }
     row += 2;
   }
 }
@@ -86,6 +116,15 @@ void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
   Eigen::Index row = 0;
   for (const Block& b : layout.blocks()) {
     const double u = uv(0, b.point), v = uv(1, b.point), z = depth(b.point);
+    if (b.representation == Representation::cylindrical) {
+      // Angle origin theta0 = 0: the derivative of cylindrical_features(); no fallback (bounded rows).
+      const double r = std::sqrt(u * u + v * v);
+      double c, s;
+      direction(u, v, r, u, v, r, c, s);
+      J.middleRows<2>(row) = cylindrical_jacobian(r, c, s, std::atan2(v, u), z);
+      row += 2;
+      continue;
+    }
     const bool polar =
         b.representation == Representation::polar && !polar_falls_back(u * u + v * v, polar_min_radius);
     J.middleRows<2>(row) = polar ? polar_jacobian(u, v, z) : cartesian_jacobian(u, v, z);
@@ -99,7 +138,14 @@ void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>
   for (const Block& b : layout.blocks()) {
     e(row) = f(row) - f_desired(row);
     const double d = f(row + 1) - f_desired(row + 1);
-    e(row + 1) = b.representation == Representation::polar ? wrap_angle(d) : d;
+    if (b.representation == Representation::cylindrical) {
+      // r wrap(theta - theta*), theta recovered as (r theta) / r; 0 when either point is
+      // at the principal point (its angle is then taken to be the other's).
+      const double r = f(row), rd = f_desired(row);
+      e(row + 1) = r > 0.0 && rd > 0.0 ? r * wrap_angle(f(row + 1) / r - f_desired(row + 1) / rd) : 0.0;
+    } else {
+      e(row + 1) = b.representation == Representation::polar ? wrap_angle(d) : d;
+    }
     row += 2;
   }
 }

@@ -57,6 +57,30 @@ struct Work {
     }
   }
 
+  // Cylindrical block (Iwatsuki & Okiyama): error (r - r*, r wrap(theta - theta*)) and its
+  // Jacobian, the rows of (r, r alpha) with the angle alpha measured from theta*:
+  // alpha = wrap(theta - theta*) at the current point, 0 at the desired one. A point
+  // at r = 0 takes the other point's direction (alpha = 0 there): its block is then
+  // the Cartesian block in a rotated basis, so no fallback is needed.
+  void put_cylindrical(Eigen::Index row, InteractionMatrix which, double u, double v, double r2, double z, double ud,
+                       double vd, double rd2, double zd) noexcept {
+    const double r = std::sqrt(r2), rd = std::sqrt(rd2);
+    double dth = 0.0;
+    if (r2 > 0.0 && rd2 > 0.0) {
+      dth = std::atan2(v, u) - std::atan2(vd, ud);
+      if (dth > pi) dth -= 2.0 * pi;
+      else if (dth <= -pi) dth += 2.0 * pi;
+    }
+    e(row) = r - rd;
+    e(row + 1) = r * dth;
+    // Directions: own when r > 0, else the other point's, else (1, 0).
+    const double c = r > 0.0 ? u / r : rd > 0.0 ? ud / rd : 1.0, s = r > 0.0 ? v / r : rd > 0.0 ? vd / rd : 0.0;
+    const double cd = rd > 0.0 ? ud / rd : c, sd = rd > 0.0 ? vd / rd : s;
+    const auto cur = [&] { return cylindrical_jacobian(r, c, s, dth, z); };
+    const auto des = [&] { return cylindrical_jacobian(rd, cd, sd, 0.0, zd); };
+    put(row, which, cur, des);
+  }
+
   // Fills J and e for this frame; returns the number of polar fallbacks.
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
@@ -66,6 +90,11 @@ struct Work {
     for (const Block& b : layout.blocks()) {
       const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
       const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
+      if (b.representation == Representation::cylindrical) {
+        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point));
+        row += 2;
+        continue;
+      }
       bool polar = b.representation == Representation::polar;
       if (polar && (polar_falls_back(r2, o.polar_min_radius) || polar_falls_back(rd2, o.polar_min_radius))) {
         polar = false;
@@ -179,6 +208,21 @@ void Servo::validate(const ServoOptions& o) {
     throw std::invalid_argument("ibvs: gain must be finite and > 0, got " + std::to_string(o.gain));
   detail::check_nonnegative(o.damping, "damping");
   detail::check_nonnegative(o.polar_min_radius, "polar_min_radius");
+  const AdaptiveGain& a = o.adaptive_gain;
+  if (a.enabled() || a.at_infinity != 0.0 || a.slope_at_zero != 0.0) {
+    if (!(a.at_zero > 0.0) || !std::isfinite(a.at_zero))
+      throw std::invalid_argument("ibvs: adaptive_gain.at_zero must be finite and > 0, got " + std::to_string(a.at_zero));
+    if (!(a.at_infinity > 0.0) || !(a.at_infinity <= a.at_zero))
+      throw std::invalid_argument("ibvs: adaptive_gain.at_infinity must be > 0 and <= at_zero, got " +
+                                  std::to_string(a.at_infinity));
+    detail::check_nonnegative(a.slope_at_zero, "adaptive_gain.slope_at_zero");
+  }
+  if (!(o.max_linear_speed > 0.0))
+    throw std::invalid_argument("ibvs: max_linear_speed must be > 0 (inf = no limit), got " +
+                                std::to_string(o.max_linear_speed));
+  if (!(o.max_angular_speed > 0.0))
+    throw std::invalid_argument("ibvs: max_angular_speed must be > 0 (inf = no limit), got " +
+                                std::to_string(o.max_angular_speed));
   if (o.jacobian != InteractionMatrix::current && o.jacobian != InteractionMatrix::desired &&
       o.jacobian != InteractionMatrix::mean)
     throw std::invalid_argument("ibvs: jacobian must be current, desired or mean");
@@ -210,6 +254,8 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
                   finite_positive(depth) && (!uses_zd || finite_positive(depth_desired));
   if (!ok) {
     out.velocity.setZero();
+    out.saturated = false;
+    out.saturation_scale = 1.0;
     return out.status = Status::invalid_input;
   }
   return std::visit(
@@ -221,10 +267,15 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
         out.sigma_min = out.sigma_max = 0.0;
         Twist x;
         const bool singular = w.solve(options_, m, x, out.sigma_min, out.sigma_max);
-        out.velocity = -options_.gain * x;
         out.error = w.e.head(m);
         out.error_norm = out.error.norm();
         out.jacobian = w.J.topRows(m);
+        const AdaptiveGain& ag = options_.adaptive_gain;
+        out.gain = ag.enabled() ? ag(out.error_norm) : options_.gain;
+        out.velocity = -out.gain * x;
+        out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);
+        out.saturated = out.saturation_scale < 1.0;
+        if (out.saturated) out.velocity *= out.saturation_scale;
         return out.status = singular ? Status::singular : Status::ok;
         }
       },

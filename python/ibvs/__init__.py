@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ._core import (
+    AdaptiveGain,
     Layout,
     Representation,
     Servo,
@@ -27,6 +28,7 @@ from ._core import (
 )
 
 __all__ = [
+    "AdaptiveGain",
     "Layout",
     "Representation",
     "Servo",

@@ -17,6 +17,7 @@ Depth = Union[float, npt.ArrayLike]
 class Representation(enum.Enum):
     cartesian = 0
     polar = 1
+    cylindrical = 2
 
 class Status(enum.Enum):
     ok = 0
@@ -33,6 +34,8 @@ class Layout:
     def polar(n: int) -> Layout: ...
     @staticmethod
     def stacked(n: int) -> Layout: ...
+    @staticmethod
+    def cylindrical(n: int) -> Layout: ...
     @property
     def rows(self) -> int: ...
     @property
@@ -59,6 +62,18 @@ def wrap_angle(angle: Union[float, ArrayLike]) -> Union[float, FloatArray]: ...
 def se3_exp(twist: ArrayLike) -> FloatArray:
     """(4, 4) rigid motion of a twist applied for unit time."""
 
+class AdaptiveGain:
+    """gain(x) = (at_zero - at_infinity) * exp(-(slope_at_zero / (at_zero - at_infinity)) * x) + at_infinity."""
+
+    def __init__(self, at_zero: float, at_infinity: float, slope_at_zero: float) -> None: ...
+    @property
+    def at_zero(self) -> float: ...
+    @property
+    def at_infinity(self) -> float: ...
+    @property
+    def slope_at_zero(self) -> float: ...
+    def __call__(self, x: Union[float, ArrayLike]) -> Union[float, FloatArray]: ...
+
 class ServoResult:
     @property
     def status(self) -> Status: ...
@@ -79,18 +94,29 @@ class ServoResult:
     def condition(self) -> float: ...
     @property
     def polar_fallbacks(self) -> int: ...
+    @property
+    def gain(self) -> float:
+        """The gain applied this step."""
+    @property
+    def saturated(self) -> bool: ...
+    @property
+    def saturation_scale(self) -> float: ...
 
 class Servo:
-    gain: float
+    gain: Union[float, AdaptiveGain]
     damping: float
+    max_linear_speed: float
+    max_angular_speed: float
     def __init__(
         self,
         layout: Layout,
-        gain: float,
+        gain: Union[float, AdaptiveGain],
         damping: float = 0.0,
         jacobian: str = "current",
         polar_min_radius: float = 1e-3,
         diagnostics: bool = True,
+        max_linear_speed: float = ...,
+        max_angular_speed: float = ...,
     ) -> None: ...
     def update(
         self, uv: ArrayLike, depth: Depth, uv_desired: ArrayLike, depth_desired: Depth | None = None

@@ -46,16 +46,20 @@ void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 using namespace ibvs;
 
 // A whole simulated episode (the per-frame loop: camera model, noise, latency,
-// pose estimate, Servo, gantry) allocates nothing once the Episode is built.
+// pose estimate, depth estimate, depth error, image-boundary potential, Servo,
+// gantry) allocates nothing once the Episode is built.
 void episode_allocates_nothing() {
   using namespace sim_cases;
   for (bool gantry : {false, true}) {
-    for (DepthMode depth : {DepthMode::exact, DepthMode::pose, DepthMode::desired}) {
+    for (DepthMode depth : {DepthMode::exact, DepthMode::pose, DepthMode::desired, DepthMode::estimated}) {
       EpisodeOptions o;
       o.duration = 5.0;
       o.noise = gantry ? 0.3 : 1e-4;
       o.latency = 2;
       o.depth = depth;
+      o.depth_scale = 1.1;                          // depth error
+      o.boundary_margin = gantry ? 150.0 : 0.1;    // image-boundary potential active
+      o.boundary_gain = 0.1;
       ServoOptions so;
       so.gain = 1.0;
       Servo servo(Layout::stacked(4), so);
@@ -81,10 +85,13 @@ void run_tests() {
   episode_allocates_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
-  // 8 and 16 rows (fixed kernels), 2, 6, 12 and 256 rows (dynamic kernel).
+  const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},
+                          {2, Representation::cylindrical}, {3, Representation::cylindrical}});
+  // 8 and 16 rows (fixed kernels), 2, 6, 10, 12 and 256 rows (dynamic kernel).
   for (const Layout& L : {Layout::cartesian(4), Layout::stacked(4), hybrid, Layout::polar(1), Layout::cartesian(3),
                           Layout::stacked(3), Layout::polar(5), Layout::stacked(8), Layout::cartesian(16),
-                          Layout::stacked(32), Layout::stacked(64)}) {
+                          Layout::stacked(32), Layout::stacked(64), Layout::cylindrical(4), Layout::cylindrical(1),
+                          cyl_mixed, Layout::cylindrical(128)}) {
     for (double lambda : {0.0, 0.01}) {
       for (auto mode : {InteractionMatrix::current, InteractionMatrix::desired, InteractionMatrix::mean}) {
         for (bool diag : {true, false}) {
@@ -92,6 +99,11 @@ void run_tests() {
           o.damping = lambda;
           o.jacobian = mode;
           o.diagnostics = diag;
+          if (diag) {  // adaptive gain and saturation on the hot path as well
+            o.adaptive_gain = {2.0, 0.5, 10.0};
+            o.max_linear_speed = 0.01;
+            o.max_angular_speed = 0.02;
+          }
           Servo servo(L, o);
           ServoInput in(L);
           ServoOutput out(L);

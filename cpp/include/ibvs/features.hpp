@@ -1,4 +1,5 @@
-// Point features and their 2x6 image Jacobians (Cartesian eq. 3, polar eq. 7).
+// Point features and their 2x6 image Jacobians (Cartesian eq. 3, polar eq. 7,
+// and the cylindrical (r, r theta) of Iwatsuki & Okiyama, paper Section II).
 //
 // Conventions (the same everywhere in ibvs):
 //  * camera frame: x right, y down, z forward (optical axis);
@@ -32,6 +33,7 @@ inline constexpr double pi = 3.14159265358979323846;
 enum class Representation : std::uint8_t {
   cartesian = 0,  ///< (u, v), Jacobian eq. (3)
   polar = 1,      ///< (r, theta), Jacobian -(eq. 7)
+  cylindrical = 2,  ///< (r, r theta) of Iwatsuki & Okiyama; error (r - r*, r wrap(theta - theta*))
 };
 
 /// Default radius below which a polar block falls back to its Cartesian block
@@ -79,6 +81,34 @@ inline Matrix26 polar_jacobian(double r, double c, double s, double z) noexcept 
 inline Matrix26 polar_jacobian(double u, double v, double z) noexcept {
   const double r = std::sqrt(u * u + v * v);  // normalised coordinates: no overflow to guard against
   return polar_jacobian(r, u / r, v / r, z);
+}
+
+/// Cylindrical features (r, r theta) of Iwatsuki & Okiyama (IROS 2002, cited
+/// as [6] in the paper), theta = atan2(v, u) in (-pi, pi]: 0 at the principal point.
+inline Eigen::Vector2d cylindrical_features(double u, double v) noexcept {
+  const double r = std::sqrt(u * u + v * v);
+  return {r, r * std::atan2(v, u)};
+}
+
+/// Jacobian of (r, r alpha), alpha = theta - theta0 the point's angle from a
+/// fixed origin theta0, at radius r >= 0, direction (c, s), depth z > 0:
+///   dr/dt         = [ -c/z, -s/z, r/z, (1+r^2)s, -(1+r^2)c,  0 ] v   (row 1 of -(eq. 7))
+///   d(r alpha)/dt = alpha dr/dt + r dtheta/dt
+///                 = alpha (row above) + [ s/z, -c/z, 0, c, s, -r ] v
+/// No 1/r: r dtheta/dt is bounded. At r = 0 the direction (c, s) is undefined
+/// (the map is continuous but not differentiable there) and the caller picks
+/// it; with alpha = 0 the block is then the Cartesian block of eq. (3)
+/// expressed in the orthonormal basis (c, s), (-s, c), so it keeps rank 2.
+/// Servo uses theta0 = theta* (the error's angle origin, see Layout docs);
+/// jacobian() of a Layout uses theta0 = 0 (the features above).
+inline Matrix26 cylindrical_jacobian(double r, double c, double s, double alpha, double z) noexcept {
+  const double iz = 1.0 / z;
+  const double k = 1.0 + r * r;
+  Matrix26 J;
+  J << -c * iz, -s * iz, r * iz, k * s, -k * c, 0.0,  //
+      s * iz, -c * iz, 0.0, c, s, -r;
+  J.row(1) += alpha * J.row(0);
+  return J;
 }
 
 /// True when a polar block at squared radius r2 must use its Cartesian rows:

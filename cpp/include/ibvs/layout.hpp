@@ -31,6 +31,7 @@ class Layout {
   static Layout cartesian(int n);  ///< (u_i, v_i) for i = 0..n-1: 2N x 6
   static Layout polar(int n);      ///< (r_i, theta_i): 2N x 6, IBVS-P
   static Layout stacked(int n);    ///< (u_i, v_i, r_i, theta_i) per point: 4N x 6
+  static Layout cylindrical(int n);  ///< (r_i, r_i theta_i) (Iwatsuki & Okiyama): 2N x 6
 
   int n_points() const noexcept { return n_points_; }
   int rows() const noexcept { return static_cast<int>(2 * blocks_.size()); }
@@ -49,19 +50,26 @@ class Layout {
 // Inputs are not validated here; the allocating wrappers in interaction.hpp and
 // Servo::validate() do that.
 
-/// Feature vector f (rows): (u, v) or (r, theta) per block.
+/// Feature vector f (rows): (u, v), (r, theta) or (r, r theta) per block.
 void stacked_features(const Layout& layout, const Eigen::Ref<const Points>& uv,
                       Eigen::Ref<Eigen::VectorXd> f) noexcept;
 
 /// Stacked Jacobian (rows x 6) at the given points and depths. A polar block
 /// whose point has r < polar_min_radius is given its Cartesian rows instead
-/// (theta and its 1/r rows are undefined at the principal point).
+/// (theta and its 1/r rows are undefined at the principal point). A
+/// cylindrical block is the derivative of (r, r theta) (angle origin 0); its
+/// rows are bounded, so it never falls back; at r = 0 it takes direction (1, 0).
 void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
                       const Eigen::Ref<const Eigen::VectorXd>& depth,
                       Eigen::Ref<MatrixX6> J,
                       double polar_min_radius = default_polar_min_radius) noexcept;
 
 /// Feature error f (-) f*: plain difference, theta rows wrapped by wrap_angle().
+/// Cylindrical blocks: (r - r*, r wrap(theta - theta*)), the arc from the
+/// desired direction at the current radius (0 when r or r* is 0). This is the
+/// difference of (r, r alpha) features whose angle alpha is measured from theta*:
+/// independent of where the image's angle origin lies, continuous except
+/// opposite the desired direction (like eq. 13), and -> 0 as r -> 0.
 void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
                    const Eigen::Ref<const Eigen::VectorXd>& f_desired,
                    Eigen::Ref<Eigen::VectorXd> e) noexcept;

@@ -7,6 +7,7 @@
 //  * update(...) is noexcept, allocates nothing and returns a Status.
 #pragma once
 
+#include "ibvs/gain.hpp"
 #include "ibvs/layout.hpp"
 
 #include <Eigen/Core>
@@ -37,6 +38,12 @@ struct ServoOptions {
   InteractionMatrix jacobian = InteractionMatrix::current;
   double polar_min_radius = default_polar_min_radius;  ///< r -> 0 policy, >= 0
   bool diagnostics = true;                              ///< compute sigma_min / sigma_max every step
+  /// gain(|e|) instead of the constant `gain` when enabled (at_zero > 0); off by default.
+  AdaptiveGain adaptive_gain{};
+  /// Twist limits, > 0: the whole twist is scaled by one factor so that |T| <= max_linear_speed
+  /// (m/s) and |w| <= max_angular_speed (rad/s). Infinite (off) by default.
+  double max_linear_speed = no_limit;
+  double max_angular_speed = no_limit;
 };
 
 /// Per-frame input, sized once for a layout (N points).
@@ -59,6 +66,9 @@ struct ServoOutput {
   double sigma_min = 0.0;          ///< smallest singular value of jacobian (of the 6 columns)
   double sigma_max = 0.0;          ///< largest singular value of jacobian
   int polar_fallbacks = 0;         ///< polar blocks computed as Cartesian (r < polar_min_radius)
+  double gain = 0.0;               ///< the gain applied this step (constant or adaptive_gain(error_norm))
+  bool saturated = false;          ///< the twist was scaled down to the speed limits
+  double saturation_scale = 1.0;   ///< that factor, in (0, 1]; 1 when not saturated
 };
 
 /// Largest layout (rows) whose update() is guaranteed allocation-free on every
@@ -67,6 +77,10 @@ struct ServoOutput {
 inline constexpr int max_realtime_rows = 256;
 
 /// The control law. Build once per layout; call update() every frame.
+///
+/// velocity = -s * g * J+ e with g = options.gain, or options.adaptive_gain(|e|)
+/// when enabled, and s = saturation_scale(...) <= 1 the uniform factor that
+/// brings the twist within max_linear_speed / max_angular_speed (1 by default).
 ///
 /// Pseudoinverse route: damping > 0 solves the 6x6 damped normal equations
 /// (J^T J + lambda^2 I) x = J^T e by Cholesky (fast, exact DLS); damping = 0
@@ -77,7 +91,10 @@ inline constexpr int max_realtime_rows = 256;
 /// r -> 0 policy: a polar block whose current or desired radius is below
 /// polar_min_radius uses its Cartesian rows and Cartesian error for that step
 /// (theta is undefined at the principal point and its rows grow as 1/r);
-/// counted in ServoOutput::polar_fallbacks.
+/// counted in ServoOutput::polar_fallbacks. Cylindrical blocks (r, r theta)
+/// have bounded rows and never fall back: their error is
+/// (r - r*, r wrap(theta - theta*)) and their rows the derivative of it (see
+/// cylindrical_jacobian); a point at r = 0 borrows the other point's direction.
 class Servo {
  public:
   explicit Servo(Layout layout, ServoOptions options = {});  // throws std::invalid_argument
