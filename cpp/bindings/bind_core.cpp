@@ -89,6 +89,10 @@ py::object gain_of(const ServoOptions& o) {
   return py::float_(o.gain);
 }
 
+void check_switch_radius(double r) {
+  if (!(r >= 0.0) || !std::isfinite(r)) throw py::value_error("switch_radius must be finite and >= 0");
+}
+
 std::string number(double x) {
   std::string s = py::str(py::float_(x));
   return s;
@@ -348,6 +352,30 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
            py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
            py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true,
            py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit)
+      .def_static(
+          "automatic_hybrid",
+          [](py::handle n, py::handle gain, double switch_radius, double damping, const std::string& jac,
+             bool diagnostics, double max_linear_speed, double max_angular_speed) {
+            ServoOptions o;
+            set_gain(o, gain);
+            o.damping = damping;
+            o.jacobian = interaction(jac);
+            o.diagnostics = diagnostics;
+            o.max_linear_speed = max_linear_speed;
+            o.max_angular_speed = max_angular_speed;
+            check_switch_radius(switch_radius);
+            o.polar_min_radius = switch_radius;
+            const int n_points = int_arg(n, "n_points");
+            if (n_points < 1) throw py::value_error("n_points must be >= 1, got " + std::to_string(n_points));
+            return PyServo(Layout::polar(n_points), o);
+          },
+          py::arg("n_points"), py::arg("gain"), py::arg("switch_radius") = default_switch_radius,
+          py::arg("damping") = 0.0, py::arg("jacobian") = "current", py::arg("diagnostics") = true,
+          py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
+          R"(Automatic hybrid: each point polar while it and its desired point lie at least switch_radius
+(normalised units) from the principal point, Cartesian otherwise, re-decided every step. It is
+Servo(Layout.polar(n_points), gain, polar_min_radius=switch_radius, ...); ServoResult.polar_fallbacks
+counts the points computed as Cartesian.)")
       .def("update", &PyServo::update, py::arg("uv"), py::arg("depth"), py::arg("uv_desired"),
            py::arg("depth_desired") = py::none(),
            R"(One control step.

@@ -7,10 +7,12 @@ namespace py = pybind11;
 
 void bind_core(py::module_& m);  // bind_core.cpp
 void bind_sim(py::module_& m);   // bind_sim.cpp
+void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
   m.attr("__version__") = IBVS_VERSION;
   bind_core(m);
   bind_sim(m);
+  bind_partitioned(m);
 }

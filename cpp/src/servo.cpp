@@ -243,6 +243,12 @@ void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
   if (options_.jacobian != InteractionMatrix::current) detail::check_depth(depth_desired, "depth_desired", n);
 }
 
+Servo automatic_hybrid(int n_points, ServoOptions options, double switch_radius) {
+  detail::check_nonnegative(switch_radius, "switch_radius");
+  options.polar_min_radius = switch_radius;
+  return Servo(Layout::polar(n_points), options);
+}
+
 Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                      const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                      ServoOutput& out) noexcept {

@@ -118,6 +118,17 @@ class Servo:
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
     ) -> None: ...
+    @staticmethod
+    def automatic_hybrid(
+        n_points: int,
+        gain: Union[float, AdaptiveGain],
+        switch_radius: float = 0.05,
+        damping: float = 0.0,
+        jacobian: str = "current",
+        diagnostics: bool = True,
+        max_linear_speed: float = ...,
+        max_angular_speed: float = ...,
+    ) -> Servo: ...
     def update(
         self, uv: ArrayLike, depth: Depth, uv_desired: ArrayLike, depth_desired: Depth | None = None
     ) -> ServoResult: ...
@@ -127,3 +138,33 @@ class Servo:
     def jacobian_mode(self) -> str: ...
     @property
     def polar_min_radius(self) -> float: ...
+
+class PartitionedServo:
+    """Partitioned IBVS (Corke & Hutchinson 2001): wz from a segment angle, Tz from sqrt(area)."""
+
+    gain: float
+    def __init__(
+        self,
+        n_points: int,
+        gain: float,
+        damping: float = 0.0,
+        segment: Tuple[int, int] = (0, 1),
+        max_linear_speed: float = ...,
+        max_angular_speed: float = ...,
+    ) -> None: ...
+    def update(
+        self, uv: ArrayLike, depth: Depth, uv_desired: ArrayLike, depth_desired: Depth | None = None
+    ) -> ServoResult: ...
+    @property
+    def layout(self) -> Layout: ...
+    @property
+    def n_points(self) -> int: ...
+    @property
+    def damping(self) -> float: ...
+    @property
+    def segment(self) -> Tuple[int, int]: ...
+
+def segment_angle(uv: ArrayLike, i: int, j: int) -> float: ...
+def segment_angle_jacobian(uv: ArrayLike, depth: Depth, i: int, j: int) -> FloatArray: ...
+def area_scale(uv: ArrayLike) -> float: ...
+def area_scale_jacobian(uv: ArrayLike, depth: Depth) -> FloatArray: ...

@@ -5,6 +5,7 @@
 #include "check.hpp"
 
 #include "ibvs/ibvs.hpp"
+#include "ibvs/partitioned.hpp"
 #include "sim_cases.hpp"
 
 #include <atomic>
@@ -81,8 +82,40 @@ void episode_allocates_nothing() {
   }
 }
 
+// PartitionedServo::update: fixed 8 rows and the bounded dynamic workspace (256 rows).
+void partitioned_allocates_nothing() {
+  for (int n : {4, 3, 128}) {
+    for (double lambda : {0.0, 0.01}) {
+      PartitionedOptions o;
+      o.damping = lambda;
+      o.max_linear_speed = 0.01;
+      PartitionedServo servo(n, o);
+      ServoOutput out(servo.layout());
+      Points uv(2, n), uvd(2, n);
+      for (int i = 0; i < n; ++i) {
+        const double a = 2 * pi * i / n;
+        uv.col(i) << 0.1 * std::cos(a), 0.1 * std::sin(a);
+        uvd.col(i) << 0.12 * std::cos(a + 2.5), 0.12 * std::sin(a + 2.5);
+      }
+      Eigen::VectorXd z = Eigen::VectorXd::Ones(n);
+      const long before = news.load();
+      Eigen::internal::set_is_malloc_allowed(false);
+      Status st = Status::ok;
+      for (int k = 0; k < 3; ++k) st = servo.update(uv, z, uvd, z, out);
+      z(0) = -1.0;
+      const Status bad = servo.update(uv, z, uvd, z, out);
+      Eigen::internal::set_is_malloc_allowed(true);
+      const long during = news.load() - before;
+      ibvs_test::report(during == 0, "no allocation in PartitionedServo::update", __FILE__, __LINE__,
+                        std::to_string(n) + ": " + std::to_string(during));
+      CHECK(st != Status::invalid_input && bad == Status::invalid_input && out.velocity.allFinite());
+    }
+  }
+}
+
 void run_tests() {
   episode_allocates_nothing();
+  partitioned_allocates_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

@@ -181,3 +181,58 @@ def test_cylindrical_z_rotation_pi_rotates_without_retreat(mode):
     res, T, retreat = run(CYL, [0, 0, 0, 0, 0, np.pi - 1e-6], mode)
     assert res.error_norm < 1e-9 and retreat < 1e-9
     np.testing.assert_allclose(T, np.eye(4), atol=1e-6)
+
+
+# ---- automatic hybrid: polar away from the principal point, Cartesian near it -------------------
+#: The paper's square shifted so that point 2 ends 0.012 from the principal point.
+NEAR_AXIS = np.array([[0.47, 0.48, 3.0], [-0.03, 0.48, 3.0], [-0.03, -0.02, 3.0], [0.47, -0.02, 3.0]])
+
+
+def test_automatic_hybrid_is_polar_with_a_switching_radius():
+    servo = ibvs.Servo.automatic_hybrid(4, gain=1.0, switch_radius=0.05)
+    assert servo.layout == ibvs.Layout.polar(4) and servo.polar_min_radius == 0.05
+    assert ibvs.Servo.automatic_hybrid(4, gain=1.0).polar_min_radius == 0.05  # the default
+    uv = np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]])
+    for scale in [0.999, 1.001]:
+        for moved in ["current", "desired"]:
+            a, b = uv.copy(), 1.2 * uv
+            (a if moved == "current" else b)[0] = scale * 0.05 * np.array([0.6, 0.8])
+            res = servo.update(a, 1.0, b)
+            cart = scale < 1
+            assert res.polar_fallbacks == int(cart)
+            single = ibvs.Layout.cartesian(1) if cart else ibvs.Layout.polar(1)
+            np.testing.assert_allclose(res.jacobian[:2], ibvs.jacobian(a[:1], 1.0, single), rtol=1e-12)
+    for bad, exc in [(dict(switch_radius=-1.0), ValueError), (dict(n_points=0), ValueError), (dict(n_points=1.5), TypeError)]:
+        with pytest.raises(exc, match=next(iter(bad))):
+            ibvs.Servo.automatic_hybrid(**{"n_points": 4, "gain": 1.0, **bad})
+
+
+def run_target(servo, start, points):
+    uvd, zd = look(np.eye(4), points)
+    T = ibvs.se3_exp(start)
+    z0, retreat, peak, switched = T[2, 3], 0.0, 0.0, 0
+    for _ in range(4000):
+        uv, z = look(T, points)
+        retreat = max(retreat, z0 - T[2, 3])
+        res = servo.update(uv, z, uvd, zd)
+        peak, switched = max(peak, np.abs(res.velocity).max()), max(switched, res.polar_fallbacks)
+        if res.error_norm < 1e-9:
+            break
+        T = T @ ibvs.se3_exp(res.velocity / 60.0)
+    return res.error_norm, T, retreat, peak, switched
+
+
+@pytest.mark.parametrize("start", [[0, 0, 0, 0, 0, np.pi - 1e-6], GENERAL, [0.2, 0, 0, 0, 0, 0]])
+def test_automatic_hybrid_converges(start):
+    from conftest import TARGET
+
+    err, T, retreat, _, switched = run_target(ibvs.Servo.automatic_hybrid(4, gain=1.0), start, TARGET)
+    assert err < 1e-9 and switched == 0 and retreat < 1e-9  # the paper's target: every point polar
+    np.testing.assert_allclose(T, np.eye(4), atol=1e-6)
+    err, T, retreat, peak, switched = run_target(ibvs.Servo.automatic_hybrid(4, gain=1.0), start, NEAR_AXIS)
+    # At most a couple of centimetres of retreat (Cartesian IBVS: 0.5 m on GENERAL, unbounded at pi).
+    assert err < 1e-9 and switched == 1 and retreat < (2e-3 if start[5] > 3 else 0.02)
+    np.testing.assert_allclose(T, np.eye(4), atol=1e-6)
+    _, _, _, peak_polar, _ = run_target(ibvs.Servo(ibvs.Layout.polar(4), gain=1.0), start, NEAR_AXIS)
+    if start[5] < 3:  # IBVS-P's 1/r rows near the axis: a much larger twist
+        assert peak < 0.6 * peak_polar

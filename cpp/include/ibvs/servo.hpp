@@ -128,4 +128,19 @@ class Servo {
   std::unique_ptr<Kernel> kernel_;
 };
 
+/// Default switching radius of the automatic hybrid (normalised units: 50 px
+/// at a focal length of 1000 px).
+inline constexpr double default_switch_radius = 0.05;
+
+/// Automatic hybrid: each point is polar (IBVS-P) while it and its desired
+/// point lie at least switch_radius from the principal point, and Cartesian
+/// (eq. 3) otherwise, re-decided every step. This is the r -> 0 policy above
+/// with a larger radius: Layout::polar(n) and polar_min_radius = switch_radius
+/// (options.polar_min_radius is replaced). Near the centre the polar rows grow
+/// as 1/r and a small image distance becomes a large theta error; the
+/// Cartesian block has neither problem, while far from it the polar block
+/// keeps the straight r-theta paths that avoid the camera retreat.
+/// ServoOutput::polar_fallbacks counts the points computed as Cartesian.
+Servo automatic_hybrid(int n_points, ServoOptions options = {}, double switch_radius = default_switch_radius);
+
 }  // namespace ibvs
