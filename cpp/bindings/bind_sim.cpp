@@ -70,13 +70,14 @@ py::array_t<double> rows_of(const Eigen::VectorXd& v, int rows) {
 
 DepthMode depth_mode(py::handle obj) {
   if (!py::isinstance<py::str>(obj))
-    throw py::type_error("depth must be 'exact', 'pose' or 'desired', got " +
+    throw py::type_error("depth must be 'exact', 'pose', 'desired' or 'estimated', got " +
                          std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
   const auto s = obj.cast<std::string>();
   if (s == "exact") return DepthMode::exact;
   if (s == "pose") return DepthMode::pose;
   if (s == "desired") return DepthMode::desired;
-  throw py::value_error("depth must be 'exact', 'pose' or 'desired', got '" + s + "'");
+  if (s == "estimated") return DepthMode::estimated;
+  throw py::value_error("depth must be 'exact', 'pose', 'desired' or 'estimated', got '" + s + "'");
 }
 
 // A fresh C++ Servo with the layout and options of the Python ibvs.Servo
@@ -264,7 +265,7 @@ normalize(): measurement -> normalised with kdu.)")
       [m](py::handle servo, const Camera& camera, const Target& target, py::handle start, py::handle goal,
           std::optional<Gantry> robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
-          bool stop_on_singular) {
+          bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain) {
         EpisodeOptions o;
         o.duration = duration;
         o.noise = noise;
@@ -275,6 +276,9 @@ normalize(): measurement -> normalised with kdu.)")
         o.max_depth_ratio = max_depth_ratio;
         o.max_error_ratio = max_error_ratio;
         o.stop_on_singular = stop_on_singular;
+        o.depth_scale = depth_scale;
+        o.boundary_margin = boundary_margin;
+        o.boundary_gain = boundary_gain;
         Servo sv = servo_copy(m, servo);
         if (robot) {
           const Joints qs = joints_arg(start, "start");
@@ -304,6 +308,7 @@ normalize(): measurement -> normalised with kdu.)")
       py::arg("servo"), py::arg("camera"), py::arg("target"), py::arg("start"), py::arg("goal"),
       py::arg("robot") = py::none(), py::arg("duration") = 10.0, py::arg("noise") = 0.0, py::arg("latency") = 0,
       py::arg("depth") = "exact", py::arg("seed") = 0, py::arg("tolerance") = 1e-4, py::arg("max_depth_ratio") = 10.0,
-      py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true,
+      py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
+      py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1,
       "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
 }

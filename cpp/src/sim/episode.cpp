@@ -1,5 +1,6 @@
 #include "ibvs/sim/episode.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -25,6 +26,7 @@ const char* to_string(DepthMode d) noexcept {
     case DepthMode::exact: return "exact";
     case DepthMode::pose: return "pose";
     case DepthMode::desired: return "desired";
+    case DepthMode::estimated: return "estimated";
   }
   return "unknown";
 }
@@ -34,12 +36,16 @@ void EpisodeOptions::validate() const {
   if (!(duration > 0.0) || !std::isfinite(duration)) fail("duration must be finite and > 0");
   if (!(noise >= 0.0) || !std::isfinite(noise)) fail("noise must be finite and >= 0");
   if (latency < 0 || latency > 1000) fail("latency must be in [0, 1000] frames");
-  if (depth != DepthMode::exact && depth != DepthMode::pose && depth != DepthMode::desired)
-    fail("depth must be exact, pose or desired");
+  if (depth != DepthMode::exact && depth != DepthMode::pose && depth != DepthMode::desired &&
+      depth != DepthMode::estimated)
+    fail("depth must be exact, pose, desired or estimated");
   if (!(tolerance >= 0.0) || !std::isfinite(tolerance)) fail("tolerance must be finite and >= 0");
   if (!(min_depth > 0.0) || !std::isfinite(min_depth)) fail("min_depth must be finite and > 0");
   if (!(max_depth_ratio > 1.0)) fail("max_depth_ratio must be > 1");
   if (!(max_error_ratio > 1.0)) fail("max_error_ratio must be > 1");
+  if (!(depth_scale > 0.0) || !std::isfinite(depth_scale)) fail("depth_scale must be finite and > 0");
+  if (!(boundary_margin >= 0.0) || !std::isfinite(boundary_margin)) fail("boundary_margin must be finite and >= 0");
+  if (!(boundary_gain >= 0.0) || !std::isfinite(boundary_gain)) fail("boundary_gain must be finite and >= 0");
 }
 
 namespace {
@@ -84,6 +90,11 @@ Episode::Episode(Servo servo, Camera camera, Target target, EpisodeOptions optio
   ring_depth_.resize(slots, n);
   uv_.resize(2, n);
   z_.resize(n);
+  desired_distance_.resize(4, n);
+  rho_.resize(n);
+  rho_var_.resize(n);
+  uv_prev_.resize(2, n);
+  ring_twist_.resize(slots, 6);
   const long frames = std::lround(options_.duration * camera_.fps);
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
   const Eigen::Index K = frames, m = servo_.layout().rows();
@@ -127,6 +138,7 @@ void Episode::prepare(const Pose& goal) {
     if (!camera_.contains(m(0), m(1)))
       throw std::invalid_argument("ibvs: goal: target point " + std::to_string(i) + " is outside the image");
     result_.uv_desired.col(i) = camera_.normalize(m(0), m(1));
+    desired_distance_.col(i) << m(0) - camera_.u_min, camera_.u_max - m(0), m(1) - camera_.v_min, camera_.v_max - m(1);
     result_.depth_desired(i) = p(2);
   }
 }
@@ -238,6 +250,19 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
     switch (options_.depth) {
       case DepthMode::exact: z_ = ring_depth_.row(seen).transpose(); break;
       case DepthMode::desired: z_ = result_.depth_desired; break;
+      case DepthMode::estimated:
+        if (k == 0) {
+          for (int i = 0; i < n; ++i) {
+            rho_(i) = 1.0 / (options_.depth_scale * result_.depth_desired(i));
+            rho_var_(i) = rho_(i) * rho_(i);  // 100 % prior uncertainty
+          }
+          uv_prev_ = uv_;
+        } else if (k > options_.latency) {  // a new frame reached the controller
+          estimate_depth(k - options_.latency);
+          uv_prev_ = uv_;
+        }
+        z_ = rho_.cwiseInverse();
+        break;
       case DepthMode::pose: {
         // From the image alone (the homography step needs no initial guess);
         // on failure the last estimate is kept.
@@ -247,6 +272,7 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
         break;
       }
     }
+    if (options_.depth_scale != 1.0 && options_.depth != DepthMode::estimated) z_ *= options_.depth_scale;
 
     // 5. Control.
     const Status s = servo_.update(uv_, z_, result_.uv_desired, result_.depth_desired, out_);
@@ -262,10 +288,11 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
       st = {Outcome::diverged, k, -1, -1};
       break;
     }
-    h.twist.row(k) = out_.velocity.transpose();
+    if (options_.boundary_margin > 0.0 && options_.boundary_gain > 0.0) out_.velocity(2) += boundary_tz(seen);
     h.error.row(k) = out_.error.transpose();
     h.error_norm(k) = out_.error_norm;
     h.sigma_min(k) = out_.sigma_min;
+    h.twist.row(k) = out_.velocity.transpose();
     if (k == 0) error0 = out_.error_norm;
     if (out_.error_norm < options_.tolerance) {
       st = {Outcome::converged, k, -1, -1};
@@ -298,9 +325,12 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
         st = {Outcome::joint_limit, k, -1, j};
         break;
       }
+      if (options_.depth == DepthMode::estimated)  // the camera twist the joints really produce
+        ring_twist_.row(k % slots) = (gantry_->jacobian(q) * qdot).transpose();
       q = q_next;
       T_next = gantry_->camera(q);
     } else {
+      ring_twist_.row(k % slots) = out_.velocity.transpose();
       T_next = T_wc * se3_exp(out_.velocity * dt);  // exact SE(3) integration of the twist
     }
     mt.path_length += (T_next.topRightCorner<3, 1>() - T_wc.topRightCorner<3, 1>()).norm();
@@ -310,6 +340,67 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
   const Pose& goal = result_.goal;
   mt.final_translation_error = (T_wc.topRightCorner<3, 1>() - goal.topRightCorner<3, 1>()).norm();
   mt.final_rotation_error = rotation_angle(goal.topLeftCorner<3, 3>(), T_wc.topLeftCorner<3, 3>());
+}
+
+// Tz of the image-boundary potential (see episode.hpp) for the measurement the
+// controller sees (ring slot `seen`) and the depths z_ it is given.
+double Episode::boundary_tz(int seen) const noexcept {
+  const int n = target_.size();
+  const double margin = options_.boundary_margin;
+  double dU_dTz = 0.0, zbar = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const auto p = measured_.col(static_cast<Eigen::Index>(seen) * n + i);
+    const double z = z_(i);
+    zbar += z;
+    // distance to each side, its derivative along u or v, and d(u or v)/dTz
+    const double d[4] = {p(0) - camera_.u_min, camera_.u_max - p(0), p(1) - camera_.v_min, camera_.v_max - p(1)};
+    const double sign[4] = {1.0, -1.0, 1.0, -1.0};
+    const double rate[4] = {(p(0) - camera_.u0) / z, (p(0) - camera_.u0) / z, (p(1) - camera_.v0) / z,
+                            (p(1) - camera_.v0) / z};
+    for (int side = 0; side < 4; ++side) {
+      const double m = std::min(margin, desired_distance_(side, i));
+      if (!(m > 0.0)) continue;
+      const double s = std::max(d[side] / m, 1e-3);
+      if (s >= 1.0) continue;
+      const double dU_dd = -(1.0 / s - 1.0) / (s * s * m);
+      dU_dTz += dU_dd * sign[side] * rate[side];
+    }
+  }
+  zbar /= n;
+  const double tz = -options_.boundary_gain * zbar * zbar * dU_dTz;
+  return std::isfinite(tz) ? tz : 0.0;
+}
+
+// One step of the per-point inverse-depth Kalman filter (see episode.hpp)
+// between the previous controller points uv_prev_ (frame `seen` - 1) and uv_
+// (frame `seen`), with the camera twist applied in between.
+void Episode::estimate_depth(int seen) noexcept {
+  const int slots = options_.latency + 1;
+  const double dt = 1.0 / camera_.fps;
+  const auto v = ring_twist_.row((seen - 1) % slots);
+  const double Tx = v(0), Ty = v(1), Tz = v(2), wx = v(3), wy = v(4), wz = v(5);
+  const double sigma = options_.noise / std::min(camera_.px, camera_.py);  // normalised units
+  const double R = 2.0 * sigma * sigma / (dt * dt) + 1e-6;  // image-velocity variance, + discretisation floor
+  for (int i = 0; i < target_.size(); ++i) {
+    const double x0 = uv_prev_(0, i), y0 = uv_prev_(1, i), x1 = uv_(0, i), y1 = uv_(1, i);
+    const double x = 0.5 * (x0 + x1), y = 0.5 * (y0 + y1);
+    // prediction by the depth dynamics (midpoint rule): rho_dot = rho^2 Tz + rho (wx y - wy x)
+    double rho = rho_(i);
+    const double rho_mid = rho + 0.5 * dt * (rho * rho * Tz + rho * (wx * y0 - wy * x0));
+    rho += dt * (rho_mid * rho_mid * Tz + rho_mid * (wx * y - wy * x));
+    const double P = rho_var_(i) + 1e-8 * rho * rho;  // 0.01 % relative process noise per frame
+    // measurement: image velocity minus its rotational part = rho * a
+    const double bx = (x1 - x0) / dt - (x * y * wx - (1.0 + x * x) * wy + y * wz);
+    const double by = (y1 - y0) / dt - ((1.0 + y * y) * wx - x * y * wy - x * wz);
+    const double ax = -Tx + x * Tz, ay = -Ty + y * Tz;
+    const double aa = ax * ax + ay * ay;
+    const double S = R + P * aa;
+    // the measurement sees the midpoint's inverse depth
+    rho += P * (ax * (bx - ax * rho_mid) + ay * (by - ay * rho_mid)) / S;
+    rho_var_(i) = P * R / S;
+    const double lo = 1.0 / (100.0 * result_.depth_desired(i)), hi = 1.0 / options_.min_depth;
+    rho_(i) = std::isfinite(rho) ? std::clamp(rho, lo, hi) : 1.0 / result_.depth_desired(i);
+  }
 }
 
 EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Pose& start,

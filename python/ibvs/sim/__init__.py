@@ -136,6 +136,12 @@ class Result:
         )
 
 
+def _real(x, name: str) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {type(x).__name__}")
+    return float(x)
+
+
 def run(
     servo,
     camera: Camera,
@@ -152,6 +158,9 @@ def run(
     max_depth_ratio: float = 10.0,
     max_error_ratio: float = 100.0,
     stop_on_singular: bool = True,
+    depth_scale: float = 1.0,
+    boundary_margin: float = 0.0,
+    boundary_gain: float = 0.1,
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -166,12 +175,22 @@ def run(
         normalised units for Camera.normalized).
     latency: frames between capture and control.
     depth: "exact" (true depths), "pose" (from a planar pose estimate of the measured
-        points; needs a planar target) or "desired" (the constant desired depths).
+        points; needs a planar target), "desired" (the constant desired depths) or
+        "estimated" (online, per point, from successive frames and the known camera
+        motion: a Kalman filter on the inverse depth, initialised at depth_scale * z*).
+    depth_scale: > 0, multiplies the depth given to the controller (a depth calibration
+        error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).
     tolerance: converged when the servo's error norm is below this.
     max_depth_ratio, max_error_ratio: diverged when the target's depth or the error norm
         exceeds this multiple of its start value.
     stop_on_singular: end with "singular" when the servo reports a rank-deficient J.
+    boundary_margin: >= 0, measurement units (pixels; normalised units for
+        Camera.normalized). When > 0, an image-boundary potential (paper Section IV,
+        Corke & Hutchinson 2001) adds a camera retreat to Tz while a point is within
+        this distance of a side of the sensor (at most its goal's distance to that side),
+        growing without bound towards the border; 0 (default) = off.
+    boundary_gain: >= 0, 1/s, weight of that retreat.
     """
     if robot is not None and not isinstance(robot, Gantry):
         raise TypeError(f"robot must be an ibvs.sim.Gantry or None, got {type(robot).__name__}")
@@ -199,6 +218,9 @@ def run(
         max_depth_ratio=float(max_depth_ratio),
         max_error_ratio=float(max_error_ratio),
         stop_on_singular=bool(stop_on_singular),
+        depth_scale=_real(depth_scale, "depth_scale"),
+        boundary_margin=_real(boundary_margin, "boundary_margin"),
+        boundary_gain=_real(boundary_gain, "boundary_gain"),
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
     metrics = Metrics(

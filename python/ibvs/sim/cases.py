@@ -26,7 +26,7 @@ import numpy as np
 from .._core import sim as _sim
 from .poses import pose
 
-__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "gantry_general_motion", "gantry_joint_limit", "solve_joints", "free_cases", "all_cases"]
+__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "solve_joints", "free_cases", "all_cases"]
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,33 @@ def general_motion() -> Case:
         _sim.Target.paper(),
         pose(t=GENERAL_MOTION_T, r=GENERAL_MOTION_R),
         np.eye(4),
+    )
+
+
+def corner_to_corner(radius: float = 0.36, angle: float = 0.75, depth: float = 1.0) -> Case:
+    """Paper Fig. 4, C -> D: every point must go from near one corner of the +-0.3 image to near
+    the next one, and the straight polar path between them leaves the image.
+
+    Target: a square in the plane z = depth whose corners the goal camera (at the world
+    origin) sees at polar (radius, -angle + k pi/2), k = 0..3. Start: the camera rotated by
+    -2 angle about its optical axis, where it sees them at (radius, angle + k pi/2). Point 1
+    goes from C = (radius, angle) to D = (radius, -angle) (Fig. 4 draws r 0.40, theta +-0.75);
+    IBVS-P drives r constant and theta straight, so every point crosses a side of the image
+    (r = 0.3 / cos at mid-side) unless the camera retreats: see EpisodeOptions boundary_margin.
+    Needs radius * max(|cos|, |sin|)(angle) < 0.3 so that start and goal are in view.
+    """
+    k = np.arange(4) * np.pi / 2
+    th = -angle + k
+    pts = np.c_[depth * radius * np.cos(th), depth * radius * np.sin(th), np.full(4, depth)]
+    return Case(
+        "corner_to_corner",
+        f"corner to corner: polar ({radius:g}, {angle:g}) -> ({radius:g}, {-angle:g}) (paper Fig. 4, C -> D)",
+        _sim.Camera.normalized(0.3),
+        _sim.Target(pts),
+        pose(r=(0.0, 0.0, -2.0 * angle)),
+        np.eye(4),
+        duration=20.0,
+        extra={"C": (radius, angle), "D": (radius, -angle)},
     )
 
 

@@ -14,8 +14,12 @@
 //      `latency` frames earlier (before t = 0 the camera sat at its start);
 //   4. the controller's points: the delayed measurement undistorted with kdu;
 //      depths exact (of the delayed frame), from a planar pose estimate, or
-//      the constant desired depths;
-//   5. Servo::update (paper eqs. 11-13) gives the camera twist; the episode
+//      the constant desired depths, or an online estimate from successive
+//      frames and the known camera motion (DepthMode::estimated, below); all
+//      times depth_scale (a calibration error);
+//   5. Servo::update (paper eqs. 11-13) gives the camera twist; with
+//      boundary_margin > 0 an image-boundary potential adds a retreat to Tz
+//      (paper Section IV, below); the episode
 //      ends when the error norm is under tolerance (converged), the servo
 //      reports a singular J (singular) or the error / target depth blows up
 //      (diverged);
@@ -25,6 +29,35 @@
 //      episode (joint_limit) with the robot stopped at its last valid q.
 // Desired features are measured the same way at the goal pose (teach by
 // showing), so the goal is an exact equilibrium of the noise-free loop.
+//
+// Image-boundary potential (paper Section IV; Corke & Hutchinson 2001, Sec. V):
+// for every measured point i and every side of the sensor, d = its distance to
+// that side (measurement units) and m = min(boundary_margin, d*) where d* is the
+// desired point's distance to the same side (so the goal stays an exact
+// equilibrium); with s = d / m,
+//   U = 1/2 sum_{i, sides with s < 1} (1/s - 1)^2            (C1, 0 at s = 1)
+// grows without bound as a point nears the border. Its rate of change along Tz
+// follows from the Tz column of the interaction matrix in measurement units,
+// du_i/dTz = (u_i - u0) / z_i, dv_i/dTz = (v_i - v0) / z_i, and the controller
+// descends it with the z-translation only:
+//   Tz <- Tz_servo - boundary_gain * zbar^2 * dU/dTz,   zbar = mean depth given
+// to the controller, so boundary_gain is in 1/s like the servo gain. Near a side
+// dU/dTz > 0 (moving forward pushes points outwards), so the camera retreats and
+// the image contracts towards the principal point; far from the border U = 0
+// and the control law is untouched.
+//
+// Depth estimate (DepthMode::estimated): per point, the inverse depth rho = 1/z
+// is tracked by a scalar Kalman filter. The Cartesian interaction matrix splits
+// into a translational part proportional to rho and a depth-free rotational part:
+//   xdot = rho * a(x, T) + L_w(x) w,   a = (-Tx + x Tz, -Ty + y Tz).
+// Between two frames the controller saw (the camera twist applied in between is
+// known: the command in free flight, J(q) qdot on the gantry), the measurement
+// b = (x_k - x_{k-1}) / dt - L_w(x_mid) w  =  rho a(x_mid) + noise is least
+// squares in rho; the prediction uses the point's depth dynamics
+// rho_dot = rho^2 Tz + rho (wx y - wy x). Initialised with depth_scale / z*;
+// measurement variance from the pixel noise (plus a floor for the
+// discretisation), a small relative process noise (0.01 % per frame); rho clamped to
+// [1 / (100 z*), 1 / min_depth].
 //
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
@@ -48,6 +81,7 @@ enum class DepthMode : std::uint8_t {
   exact = 0,    ///< true depth of each point (paper Section III-A)
   pose = 1,     ///< from a planar pose estimate of the measured points (Section III-B)
   desired = 2,  ///< the constant desired depths z*
+  estimated = 3,  ///< online estimate from successive frames and the known camera motion (see above)
 };
 
 /// How an episode ended.
@@ -74,6 +108,9 @@ struct EpisodeOptions {
   double max_depth_ratio = 10.0;   ///< diverged when the target's depth exceeds this times its start depth
   double max_error_ratio = 100.0;  ///< diverged when the error norm exceeds this times its first value
   bool stop_on_singular = true;    ///< end with `singular` when the servo reports it
+  double depth_scale = 1.0;        ///< > 0: multiplies the depth given to the controller (estimated: its initial guess)
+  double boundary_margin = 0.0;    ///< >= 0, measurement units; 0 = no image-boundary potential
+  double boundary_gain = 0.1;      ///< >= 0, 1/s; weight of the boundary potential's Tz retreat
 
   void validate() const;  ///< throws std::invalid_argument naming the field
 };
@@ -144,6 +181,8 @@ class Episode {
  private:
   void prepare(const Pose& goal);
   void loop(Pose T_wc, const Joints* q_start) noexcept;
+  double boundary_tz(int seen) const noexcept;
+  void estimate_depth(int k) noexcept;
 
   Servo servo_;
   ServoOutput out_;
@@ -160,6 +199,12 @@ class Episode {
   RowMatrix ring_depth_;  // (L+1) x N true depths
   Points uv_;
   Eigen::VectorXd z_;
+  Eigen::Matrix4Xd desired_distance_;  // 4 x N: desired points' distances to the sensor's sides
+  // depth estimate: inverse depth and its variance per point, the previous
+  // controller points, and a ring of the camera twists applied after each frame
+  Eigen::VectorXd rho_, rho_var_;
+  Points uv_prev_;
+  RowMatrix ring_twist_;  // (L+1) x 6
   EpisodeResult result_;
 };
 

@@ -1,0 +1,145 @@
+"""ibvs.sweep: reproducible rows, resume, aggregate tables, figure, Dask path, CLI."""
+
+import csv
+
+import pytest
+
+import ibvs
+import ibvs.sweep as sw
+from ibvs.__main__ import main
+
+# Small and fast: short episodes, few starts.
+SMALL = dict(episodes=6, seed=7, duration=6.0, progress=False)
+
+
+def test_reproducible_for_a_seed(tmp_path):
+    a = sw.sweep(tmp_path / "a.csv", jobs=1, **SMALL)
+    b = sw.sweep(tmp_path / "b.csv", jobs=2, **SMALL)
+    assert len(a) == 6 * len(sw.SCHEMES)
+    assert [r["id"] for r in a] == [r["id"] for r in b]
+    assert repr(a) == repr(b)
+    # what is in the file is what was returned
+    loaded = sw.load(tmp_path / "a.csv")
+    assert [r["id"] for r in loaded] == [r["id"] for r in sorted(a, key=lambda r: (r["config"], r["index"], r["scheme"]))]
+    c = sw.sweep(None, jobs=1, **{**SMALL, "seed": 8})
+    assert [r["rz_deg"] for r in c] != [r["rz_deg"] for r in a]
+
+
+def test_same_start_for_every_scheme_and_index_stable():
+    spec = sw.SweepSpec(seed=3, episodes=5)
+    assert sw.samples(spec, [4]) == sw.samples(sw.SweepSpec(seed=3, episodes=50), [4])
+    rows = sw.sweep(None, jobs=1, **{**SMALL, "episodes": 2})
+    for i in range(2):
+        starts = {tuple(r[p] for p in sw.PARAMETERS) for r in rows if r["index"] == i}
+        assert len(starts) == 1
+
+
+def test_resume_after_interruption(tmp_path):
+    out = tmp_path / "s.csv"
+    full = sw.sweep(tmp_path / "ref.csv", jobs=1, **SMALL)
+    n = len(full)
+    part = sw.sweep(out, jobs=1, limit=n // 2 + 1, **SMALL)  # "interrupted" after half
+    assert len(part) == n // 2 + 1
+    with open(out, "a") as f:  # a torn last line, as a kill mid-write leaves
+        f.write("abc,def,1")
+    again = sw.sweep(out, jobs=2, **SMALL)
+    with open(out, newline="") as f:
+        ids = [r["id"] for r in csv.DictReader(f)]
+    assert len(ids) == len(set(ids)) == n
+    assert repr(again) == repr(full)
+    assert repr(sw.aggregate(again)) == repr(sw.aggregate(full))
+    # a third run does nothing new; more episodes extend the same file
+    assert repr(sw.sweep(out, jobs=1, **SMALL)) == repr(again)
+    more = sw.sweep(out, jobs=1, **{**SMALL, "episodes": 7})
+    assert len(more) == n + len(sw.SCHEMES)
+
+
+def test_aggregate_and_table():
+    rows = sw.sweep(None, jobs=1, schemes=["cartesian", "polar"], grid={"rz_deg": [0, 60, 170]}, duration=15.0,
+                    progress=False)
+    assert len(rows) == 6
+    table = sw.aggregate(rows, bins=[0, 90, 180])
+    assert [(t["scheme"], t["bin"], t["n"]) for t in table] == [
+        ("cartesian", "[0, 90)", 2), ("cartesian", "[90, 180]", 1), ("polar", "[0, 90)", 2), ("polar", "[90, 180]", 1)]
+    by = {(t["scheme"], t["lo"]): t for t in table}
+    assert by[("polar", 90.0)]["success"] == 1.0
+    # large rotation: Cartesian IBVS retreats far more than IBVS-P
+    assert by[("cartesian", 90.0)]["retreat"] > 0.5 > by[("polar", 90.0)]["retreat"]
+    for t in table:
+        assert 0 <= t["image_exit"] <= 1 and t["joint_limit"] == 0
+    text = sw.format_table(table)
+    assert text.count("\n") == 5 and "| polar | [90, 180] | 1 | 100.0 %" in text
+    with pytest.raises(ValueError, match="by"):
+        sw.aggregate(rows, by="nope")
+    with pytest.raises(ValueError, match="bins"):
+        sw.aggregate(rows, bins=[10, 0])
+
+
+def test_figure(tmp_path):
+    pytest.importorskip("matplotlib")
+    rows = sw.sweep(None, jobs=1, schemes=["polar"], grid={"rz_deg": [10, 100]}, duration=4.0, progress=False)
+    sw.figure(sw.aggregate(rows), tmp_path / "f.png")
+    assert (tmp_path / "f.png").stat().st_size > 1000
+
+
+def test_registry_and_bad_arguments(tmp_path):
+    def mine(gain):
+        return ibvs.Servo(ibvs.Layout.polar(4), gain=gain)
+
+    sw.register_scheme("polar-copy", mine)
+    try:
+        with pytest.raises(ValueError, match="already registered"):
+            sw.register_scheme("polar-copy", mine)
+        rows = sw.sweep(None, jobs=1, schemes=["polar", "polar-copy"], **{**SMALL, "episodes": 2})
+        a = [r for r in rows if r["scheme"] == "polar"]
+        b = [r for r in rows if r["scheme"] == "polar-copy"]
+        assert [r["frames_to_converge"] for r in a] == [r["frames_to_converge"] for r in b]
+    finally:
+        del sw.SCHEMES["polar-copy"]
+    with pytest.raises(TypeError, match="factory"):
+        sw.register_scheme("x", 3)
+    for kw, match in [({"schemes": ["nope"]}, "schemes"), ({"world": "moon"}, "world"), ({"episodes": -1}, "episodes"),
+                      ({"jobs": 0}, "jobs"), ({"ranges": {"nope": (0, 1)}}, "ranges"),
+                      ({"ranges": {"tx": (1, 0)}}, "ranges"), ({"depth": "guess"}, "depth"),
+                      ({"ranges": {"depth_scale": (0, 1)}}, "depth_scale")]:
+        with pytest.raises(ValueError, match=match):
+            sw.sweep(None, progress=False, **kw)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match="out"):
+        sw.sweep(bad, episodes=1, progress=False)
+
+
+def test_gantry_world():
+    rows = sw.sweep(None, jobs=1, world="gantry", schemes=["cartesian"], episodes=2, seed=1, duration=3.0,
+                    progress=False)
+    assert len(rows) == 2 and all(r["depth"] == "pose" for r in rows)
+    assert all(r["outcome"] in ("converged", "timeout", "joint_limit", "invalid_start", "left_image") for r in rows)
+
+
+def test_dask_matches_local():
+    distributed = pytest.importorskip("distributed")
+    local = sw.sweep(None, jobs=1, **SMALL)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as c:
+        remote = sw.sweep(None, scheduler=c.scheduler_address, batch=5, **SMALL)
+        with distributed.Client(c) as client:
+            remote2 = sw.sweep(None, scheduler=client, **SMALL)
+    assert repr(sw.aggregate(remote)) == repr(sw.aggregate(local)) == repr(sw.aggregate(remote2))
+    assert repr(remote) == repr(local) == repr(remote2)
+
+
+def test_cli(tmp_path, capsys):
+    out = tmp_path / "cli.csv"
+    assert main(["sweep", "--out", str(out), "--episodes", "3", "--schemes", "polar", "cartesian", "--duration", "4",
+                 "--jobs", "1", "--quiet", "--range", "rz_deg=0:90", "--bin-width", "45"]) == 0
+    text = capsys.readouterr().out
+    assert "| polar | [0, 45)" in text and "6 episodes" in text
+    for bad in (["sweep"], ["sweep", "--out", str(out), "--episodes", "-3"], ["sweep", "--out", str(out), "--schemes", "x"],
+                ["sweep", "--out", str(out), "--range", "tx=1:0"], ["sweep", "--out", str(out), "--range", "bogus=0:1"],
+                ["sweep", "--out", str(out), "--jobs", "0"], ["sweep", "--out", str(out), "--world", "moon"],
+                ["sweep", "--out", str(out), "--grid", "rz_deg=a,b"],
+                ["sweep", "--out", str(out), "--range", "noise=-1:0"]):
+        with pytest.raises(SystemExit) as e:
+            main(bad)
+        assert e.value.code == 2, bad
+    capsys.readouterr()
