@@ -74,10 +74,27 @@ def _paper_servo(name: str, gain: float):
     return ibvs.Servo(LAYOUTS[name](), gain=gain, damping=0.0)
 
 
-#: Scheme name -> factory(gain) -> servo. The paper's four; register_scheme() adds more.
+#: Scheme name -> factory(gain) -> servo. The paper's four, the core's newer ones below;
+#: register_scheme() adds more.
 SCHEMES: dict[str, Callable[[float], Any]] = {
     name: functools.partial(_paper_servo, name) for name in ("cartesian", "polar", "hybrid", "stacked")
 }
+
+
+def _cylindrical_servo(gain: float):
+    return ibvs.Servo(ibvs.Layout.cylindrical(4), gain=gain, damping=0.0)
+
+
+def _automatic_servo(gain: float):
+    return ibvs.Servo.automatic_hybrid(4, gain=gain)
+
+
+# Schemes beyond the paper, when the core has them: the (r, r theta) features of Iwatsuki &
+# Okiyama, and the automatic hybrid (polar away from the principal point, Cartesian near it).
+if hasattr(ibvs.Layout, "cylindrical"):
+    SCHEMES["cylindrical"] = _cylindrical_servo
+if hasattr(ibvs.Servo, "automatic_hybrid"):
+    SCHEMES["automatic"] = _automatic_servo
 
 
 def register_scheme(name: str, factory: Callable[[float], Any], *, replace: bool = False) -> None:
