@@ -9,6 +9,7 @@
 #include <Eigen/SVD>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -270,7 +271,8 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
           return out.status = Status::invalid_input;  // unreachable: the constructor always builds a kernel
         } else {
         out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired);
-        out.sigma_min = out.sigma_max = 0.0;
+        // NaN = not computed (damped route with diagnostics off); solve() sets them otherwise.
+        out.sigma_min = out.sigma_max = std::numeric_limits<double>::quiet_NaN();
         Twist x;
         const bool singular = w.solve(options_, m, x, out.sigma_min, out.sigma_max);
         out.error = w.e.head(m);

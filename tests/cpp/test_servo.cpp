@@ -101,6 +101,34 @@ void singular_mean() {
   CHECK(o2.velocity.allFinite() && o2.velocity.norm() > 0);
 }
 
+// Diagnostics off on the damped route: the same twist as with them on, but
+// sigma_min / sigma_max are NaN (not computed) and the singular case is not
+// flagged; the undamped route always computes them.
+void diagnostics_off() {
+  const Layout L = Layout::cartesian(4);
+  ServoInput in(L);
+  in.uv_desired << 0.1, -0.1, -0.1, 0.1, 0.1, 0.1, -0.1, -0.1;
+  in.uv = -in.uv_desired;  // the Cartesian pi-rotation: J at the mean is rank 5
+  in.depth.setConstant(2.0);
+  in.depth_desired.setConstant(2.0);
+  ServoOptions on;
+  on.damping = 0.01;
+  on.jacobian = InteractionMatrix::mean;
+  ServoOptions off = on;
+  off.diagnostics = false;
+  Servo s_on(L, on), s_off(L, off);
+  ServoOutput o_on(L), o_off(L);
+  CHECK(s_on.update(in, o_on) == Status::singular);
+  CHECK(s_off.update(in, o_off) == Status::ok);
+  CHECK(std::isnan(o_off.sigma_min) && std::isnan(o_off.sigma_max));
+  CHECK(std::isfinite(o_on.sigma_min) && o_on.sigma_max > 0);
+  CHECK((o_on.velocity - o_off.velocity).norm() <= 1e-15 * (1 + o_on.velocity.norm()));
+  off.damping = 0.0;
+  Servo s_svd(L, off);
+  CHECK(s_svd.update(in, o_off) == Status::singular);
+  CHECK(std::isfinite(o_off.sigma_min) && o_off.sigma_min < 1e-12);
+}
+
 // A point on the optical axis (r = 0) in a polar layout: finite, counted,
 // and the block uses its Cartesian rows and Cartesian error.
 void principal_point() {
@@ -234,6 +262,7 @@ void run_tests() {
   wrap();
   law_matches_pinv();
   singular_mean();
+  diagnostics_off();
   principal_point();
   zero_policy_radius();
   bad_input();

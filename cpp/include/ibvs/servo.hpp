@@ -37,7 +37,10 @@ struct ServoOptions {
   double damping = 0.0;                                 ///< lambda >= 0 (same units as J's singular values)
   InteractionMatrix jacobian = InteractionMatrix::current;
   double polar_min_radius = default_polar_min_radius;  ///< r -> 0 policy, >= 0
-  bool diagnostics = true;                              ///< compute sigma_min / sigma_max every step
+  /// Compute sigma_min / sigma_max every step. Off, the damped route skips the
+  /// eigenvalues of J^T J (about 1.5 us at N = 4): sigma_min / sigma_max are then
+  /// NaN and Status::singular is never reported. The undamped route always has them.
+  bool diagnostics = true;
   /// gain(|e|) instead of the constant `gain` when enabled (at_zero > 0); off by default.
   AdaptiveGain adaptive_gain{};
   /// Twist limits, > 0: the whole twist is scaled by one factor so that |T| <= max_linear_speed
@@ -63,8 +66,8 @@ struct ServoOutput {
   Eigen::VectorXd error;           ///< f (-) f*, M
   double error_norm = 0.0;         ///< |error|_2
   MatrixX6 jacobian;               ///< the interaction matrix used, M x 6
-  double sigma_min = 0.0;          ///< smallest singular value of jacobian (of the 6 columns)
-  double sigma_max = 0.0;          ///< largest singular value of jacobian
+  double sigma_min = 0.0;          ///< smallest singular value of jacobian (of the 6 columns); NaN if not computed
+  double sigma_max = 0.0;          ///< largest singular value of jacobian; NaN if not computed
   int polar_fallbacks = 0;         ///< polar blocks computed as Cartesian (r < polar_min_radius)
   double gain = 0.0;               ///< the gain applied this step (constant or adaptive_gain(error_norm))
   bool saturated = false;          ///< the twist was scaled down to the speed limits
