@@ -1,12 +1,13 @@
 // Benchmark kernels that are not public library API: the solve routes of
-// Servo::update isolated on a given J and e (they mirror Work::solve in
-// cpp/src/servo.cpp, so that "pseudoinverse alone" can be timed), and the
+// Servo::update isolated on a given J and e (the library's own internal
+// cpp/src/solve.hpp, so that "pseudoinverse alone" can be timed), and the
 // Eigen "floor": one whole fixed-size damped step written directly, the
 // bound Servo::update is compared against.
 #pragma once
 
 #include "ibvs/features.hpp"
 #include "ibvs/pinv.hpp"
+#include "solve.hpp"  // cpp/src: internal, on this target's include path
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -22,62 +23,41 @@ namespace ibvs_bench {
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 using ibvs::Twist;
 
-/// The solve routes of cpp/src/servo.cpp (Work::solve), on a J and e already
-/// assembled. Rows = 8, 16 (fixed, stack storage) or Eigen::Dynamic.
+/// The solve routes of Servo::update (cpp/src/solve.hpp, the same code) on a
+/// J and e already assembled. Rows = 8, 16 (fixed, stack storage) or Eigen::Dynamic.
 template <int Rows>
 struct SolveKernel {
-  using Jac = Eigen::Matrix<double, Rows, 6>;
-  using Vec = Eigen::Matrix<double, Rows, 1>;
+  using Solve = ibvs::detail::Solver<Rows>;
 
   explicit SolveKernel(Eigen::Index m)
-      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
-        e(Vec::Zero(J.rows())),
-        qte(J.rows()),
-        qr(J.rows(), 6),
-        svd(6, 6, Eigen::ComputeFullU | Eigen::ComputeFullV),
-        m_(m) {}
+      : J(Solve::Jac::Zero(std::max<Eigen::Index>(m, 6), 6)), e(Solve::Vec::Zero(J.rows())), solver(J.rows()), m_(m) {}
 
-  Jac J;
-  Vec e;
-  Vec qte;
-  Matrix6 A;
-  Eigen::LLT<Matrix6> llt;
-  Eigen::SelfAdjointEigenSolver<Matrix6> eig;
-  Eigen::HouseholderQR<Jac> qr;
-  Eigen::JacobiSVD<Matrix6> svd;
+  typename Solve::Jac J;
+  typename Solve::Vec e;
+  Solve solver;
   Eigen::Index m_;
 
-  /// Damped route: Cholesky of the 6x6 normal equations (J^T J + l^2 I) x = J^T e.
+  /// Damped route (LLT of the normal equations), without diagnostics.
   Twist damped(double lambda) noexcept {
-    A.noalias() = J.transpose().lazyProduct(J);
-    A.diagonal().array() += lambda * lambda;
-    llt.compute(A);
     Twist x;
-    x.noalias() = J.transpose().lazyProduct(e);
-    llt.solveInPlace(x);
+    solver.normal(J);
+    solver.damped(J, e, lambda, x);
     return x;
   }
 
   /// Diagnostics of the damped route: sigma_min, sigma_max from eig(J^T J).
   Eigen::Vector2d diagnostics() noexcept {
-    A.noalias() = J.transpose().lazyProduct(J);
-    eig.compute(A, Eigen::EigenvaluesOnly);
-    return {std::sqrt(std::max(eig.eigenvalues()(0), 0.0)), std::sqrt(std::max(eig.eigenvalues()(5), 0.0))};
+    Eigen::Vector2d s;
+    solver.normal(J);
+    solver.diagnostics(s(0), s(1));
+    return s;
   }
 
   /// Undamped route: QR of J, SVD of the 6x6 R, Moore-Penrose with rank cut.
   Twist svd_route() noexcept {
-    qr.compute(J);
-    const Matrix6 R = qr.matrixQR().template topRows<6>().template triangularView<Eigen::Upper>();
-    svd.compute(R);
-    qte = e;
-    qte.applyOnTheLeft(qr.householderQ().transpose());
-    const auto& s = svd.singularValues();
-    const double tol = ibvs::rank_tolerance(m_, s(0));
-    Twist y = svd.matrixU().transpose() * qte.template head<6>();
-    for (int i = 0; i < 6; ++i) y(i) *= ibvs::pinv_factor(s(i), 0.0, tol);
     Twist x;
-    x.noalias() = svd.matrixV() * y;
+    double smin, smax;
+    solver.moore_penrose(J, e, m_, x, smin, smax);
     return x;
   }
 };

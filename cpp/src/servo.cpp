@@ -1,12 +1,7 @@
 #include "ibvs/servo.hpp"
 
 #include "checks.hpp"
-#include "ibvs/pinv.hpp"
-
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
-#include <Eigen/QR>
-#include <Eigen/SVD>
+#include "solve.hpp"
 
 #include <cmath>
 #include <limits>
@@ -18,35 +13,21 @@
 namespace ibvs {
 namespace {
 
-using Matrix6 = Eigen::Matrix<double, 6, 6>;
 
-// Workspace for one row count. Rows is 8 or 16 (the paper's 4 points, 2N and
-// 4N rows: fully unrolled products) or Dynamic with at most MaxRows rows. A
-// compile-time bound keeps Eigen's internal temporaries (e.g. inside the
-// Householder QR) on the stack; an unbounded dynamic QR allocates in compute().
-// The stored Jacobian has max(M, 6) rows; rows past M stay zero so that the QR
-// below is always of a tall matrix ([J; 0]+ = [J+, 0]: the solution is unchanged).
+// Workspace for one row count: the assembled J and e, and the solver (see
+// solve.hpp for the sizes: Rows = 8 or 16, or Dynamic bounded by MaxRows).
 template <int Rows, int MaxRows = Rows>
 struct Work {
-  using Jac = Eigen::Matrix<double, Rows, 6, Eigen::ColMajor, MaxRows, 6>;
-  using Vec = Eigen::Matrix<double, Rows, 1, Eigen::ColMajor, MaxRows, 1>;
+  using Solve = detail::Solver<Rows, MaxRows>;
+  using Jac = typename Solve::Jac;
+  using Vec = typename Solve::Vec;
 
   explicit Work(Eigen::Index m)
-      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
-        e(Vec::Zero(J.rows())),
-        qte(Vec::Zero(J.rows())),
-        A(Matrix6::Zero()),
-        qr(J.rows(), 6),
-        svd(6, 6, Eigen::ComputeFullU | Eigen::ComputeFullV) {}
+      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)), e(Vec::Zero(J.rows())), solver(J.rows()) {}
 
   Jac J;
   Vec e;
-  Vec qte;
-  Matrix6 A;
-  Eigen::LLT<Matrix6> llt;
-  Eigen::SelfAdjointEigenSolver<Matrix6> eig;
-  Eigen::HouseholderQR<Jac> qr;
-  Eigen::JacobiSVD<Matrix6> svd;
+  Solve solver;
 
   // Writes rows (row, row+1) of J as the chosen interaction matrix.
   template <class Current, class Desired>
@@ -125,38 +106,16 @@ struct Work {
     return fallbacks;
   }
 
-  // x = J+ e (damped or Moore-Penrose); returns true when J is rank-deficient.
+  // x = J+ e (damped or Moore-Penrose); returns true when J is rank-deficient
+  // (never on the damped route without diagnostics).
   bool solve(const ServoOptions& o, Eigen::Index m, Twist& x, double& smin, double& smax) noexcept {
-    const double lambda = o.damping;
-    if (lambda > 0.0) {
-      A.noalias() = J.transpose().lazyProduct(J);
-      bool singular = false;
-      if (o.diagnostics) {
-        eig.compute(A, Eigen::EigenvaluesOnly);
-        smin = std::sqrt(std::max(eig.eigenvalues()(0), 0.0));
-        smax = std::sqrt(std::max(eig.eigenvalues()(5), 0.0));
-        // sqrt(eps): what the eigenvalues of J^T J can resolve.
-        singular = !(smin > 1.5e-8 * smax);
-      }
-      A.diagonal().array() += lambda * lambda;
-      llt.compute(A);
-      x.noalias() = J.transpose().lazyProduct(e);
-      llt.solveInPlace(x);
+    if (o.damping > 0.0) {
+      solver.normal(J);
+      const bool singular = o.diagnostics && solver.diagnostics(smin, smax);
+      solver.damped(J, e, o.damping, x);
       return singular;
     }
-    qr.compute(J);
-    const Matrix6 R = qr.matrixQR().template topRows<6>().template triangularView<Eigen::Upper>();
-    svd.compute(R);
-    qte = e;
-    qte.applyOnTheLeft(qr.householderQ().transpose());
-    const auto& s = svd.singularValues();
-    smin = s(5);
-    smax = s(0);
-    const double tol = rank_tolerance(m, smax);
-    Twist y = svd.matrixU().transpose() * qte.template head<6>();
-    for (int i = 0; i < 6; ++i) y(i) *= pinv_factor(s(i), 0.0, tol);
-    x.noalias() = svd.matrixV() * y;
-    return !(smin > tol);
+    return solver.moore_penrose(J, e, m, x, smin, smax);
   }
 };
 
