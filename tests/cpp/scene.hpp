@@ -4,6 +4,9 @@
 
 #include "ibvs/ibvs.hpp"
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <random>
 
 namespace ibvs_test {
@@ -58,5 +61,56 @@ inline void look(const ibvs::Pose& T_wc, const Pts& Pw, ibvs::Points& uv, Eigen:
 }
 
 inline ibvs::Pose pose(const ibvs::Twist& xi) { return ibvs::se3_exp(xi); }
+
+/// One closed-loop run: static world points Pw, goal camera pose at the identity,
+/// the camera starting at pose(start), its twist integrated exactly on SE(3) at
+/// 60 Hz. `frames` is the frame at which the error fell below 1e-9 with the pose
+/// within 1e-5 (m, rad) of the goal, -1 if never (invalid input, wrong pose or
+/// max_frames); `retreat` the largest move away from the target along z.
+struct Run {
+  int frames = -1;
+  double retreat = 0.0;
+};
+
+/// on_step(out) sees every output (peaks, switches...). Works for any servo
+/// with update(uv, depth, uv_desired, depth_desired, out) (Servo, PartitionedServo).
+template <class AnyServo, class Pts, class OnStep>
+Run converge(AnyServo& servo, const Pts& Pw, const ibvs::Twist& start, OnStep&& on_step, int max_frames = 4000) {
+  const ibvs::Layout& L = servo.layout();
+  ibvs::ServoInput in(L);
+  ibvs::ServoOutput out(L);
+  look(ibvs::Pose::Identity(), Pw, in.uv_desired, in.depth_desired);
+  ibvs::Pose T = pose(start);
+  const double z0 = T(2, 3);
+  Run run;
+  for (int k = 0; k < max_frames; ++k) {
+    look(T, Pw, in.uv, in.depth);
+    run.retreat = std::max(run.retreat, z0 - T(2, 3));
+    if (servo.update(in.uv, in.depth, in.uv_desired, in.depth_desired, out) == ibvs::Status::invalid_input) return run;
+    on_step(out);
+    if (out.error_norm < 1e-9) {
+      const double dr = Eigen::AngleAxisd(Eigen::Matrix3d(T.topLeftCorner<3, 3>())).angle();
+      if (T.topRightCorner<3, 1>().norm() < 1e-5 && dr < 1e-5) run.frames = k;
+      return run;
+    }
+    T = T * ibvs::se3_exp(out.velocity / 60.0);
+  }
+  return run;
+}
+
+template <class AnyServo, class Pts>
+Run converge(AnyServo& servo, const Pts& Pw, const ibvs::Twist& start) {
+  return converge(servo, Pw, start, [](const ibvs::ServoOutput&) {});
+}
+
+/// The same with a Servo built for layout L (gain 1) on the paper's square at 3 m.
+inline Run converge(const ibvs::Layout& L, ibvs::InteractionMatrix mode, double lambda, const ibvs::Twist& start) {
+  ibvs::ServoOptions o;
+  o.gain = 1.0;
+  o.damping = lambda;
+  o.jacobian = mode;
+  ibvs::Servo servo(L, o);
+  return converge(servo, square(0.25, 3.0), start);
+}
 
 }  // namespace ibvs_test

@@ -39,32 +39,17 @@ void switches_at_the_radius() {
   CHECK_THROWS(automatic_hybrid(0, o, R));
 }
 
-struct Run {
-  int frames = -1;
-  double retreat = 0.0, peak = 0.0;
-  int switched = 0;
+struct Run : ibvs_test::Run {
+  double peak = 0.0;  // largest twist component
+  int switched = 0;   // most points computed as Cartesian in one step
 };
 
 Run converge(Servo& servo, const Eigen::Matrix<double, 3, 4>& Pw, const Twist& start) {
-  const Layout& L = servo.layout();
-  ServoInput in(L);
-  ServoOutput out(L);
-  ibvs_test::look(Pose::Identity(), Pw, in.uv_desired, in.depth_desired);
-  Pose T = ibvs_test::pose(start);
-  const double z0 = T(2, 3);
   Run run;
-  for (int k = 0; k < 4000; ++k) {
-    ibvs_test::look(T, Pw, in.uv, in.depth);
-    run.retreat = std::max(run.retreat, z0 - T(2, 3));
-    if (servo.update(in, out) == Status::invalid_input) return run;
+  static_cast<ibvs_test::Run&>(run) = ibvs_test::converge(servo, Pw, start, [&](const ServoOutput& out) {
     run.peak = std::max(run.peak, out.velocity.cwiseAbs().maxCoeff());
     run.switched = std::max(run.switched, out.polar_fallbacks);
-    if (out.error_norm < 1e-9) {
-      if (T.topRightCorner<3, 1>().norm() < 1e-5) run.frames = k;
-      return run;
-    }
-    T = T * se3_exp(out.velocity / 60.0);
-  }
+  });
   return run;
 }
 

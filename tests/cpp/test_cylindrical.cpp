@@ -195,38 +195,8 @@ void law_matches_pinv() {
   }
 }
 
-struct Run {
-  int frames = -1;
-  double retreat = 0.0;  // max increase of the camera's distance to the target plane
-};
-
-Run converge(const Layout& L, InteractionMatrix mode, double lambda, const Twist& start) {
-  const auto Pw = ibvs_test::square(0.25, 3.0);
-  ServoOptions o;
-  o.gain = 1.0;
-  o.damping = lambda;
-  o.jacobian = mode;
-  Servo servo(L, o);
-  ServoInput in(L);
-  ServoOutput out(L);
-  ibvs_test::look(Pose::Identity(), Pw, in.uv_desired, in.depth_desired);
-  Pose T = ibvs_test::pose(start);
-  const double z0 = 3.0 - T(2, 3);
-  Run run;
-  for (int k = 0; k < 3000; ++k) {
-    ibvs_test::look(T, Pw, in.uv, in.depth);
-    run.retreat = std::max(run.retreat, (3.0 - T(2, 3)) - z0);
-    if (servo.update(in, out) == Status::invalid_input) return run;
-    if (out.error_norm < 1e-9) {
-      const double dp = T.topRightCorner<3, 1>().norm();
-      const double dr = Eigen::AngleAxisd(Eigen::Matrix3d(T.topLeftCorner<3, 3>())).angle();
-      if (dp < 1e-5 && dr < 1e-5) run.frames = k;
-      return run;
-    }
-    T = T * se3_exp(out.velocity / 60.0);
-  }
-  return run;
-}
+using ibvs_test::converge;
+using ibvs_test::Run;
 
 void closed_loop() {
   Twist easy, xshift, general;

@@ -49,35 +49,20 @@ void feature_jacobians_fd() {
   }
 }
 
-struct Run {
-  int frames = -1;
-  double retreat = 0.0, max_lateral = 0.0;
+struct Run : ibvs_test::Run {
+  double max_lateral = 0.0;  // largest |(Tx, Ty)| + |(wx, wy)|
 };
 
 Run converge(const Twist& start, double lambda) {
-  const auto Pw = ibvs_test::square(0.25, 3.0);
   PartitionedOptions o;
   o.gain = 1.0;
   o.damping = lambda;
   PartitionedServo servo(4, o);
-  ServoInput in(servo.layout());
-  ServoOutput out(servo.layout());
-  ibvs_test::look(Pose::Identity(), Pw, in.uv_desired, in.depth_desired);
-  Pose T = ibvs_test::pose(start);
-  const double z0 = T(2, 3);
   Run run;
-  for (int k = 0; k < 4000; ++k) {
-    ibvs_test::look(T, Pw, in.uv, in.depth);
-    run.retreat = std::max(run.retreat, z0 - T(2, 3));
-    if (servo.update(in.uv, in.depth, in.uv_desired, in.depth_desired, out) == Status::invalid_input) return run;
-    run.max_lateral = std::max(run.max_lateral, out.velocity.head<2>().norm() + out.velocity.segment<2>(3).norm());
-    if (out.error_norm < 1e-9) {
-      const double dr = Eigen::AngleAxisd(Eigen::Matrix3d(T.topLeftCorner<3, 3>())).angle();
-      if (T.topRightCorner<3, 1>().norm() < 1e-5 && dr < 1e-5) run.frames = k;
-      return run;
-    }
-    T = T * se3_exp(out.velocity / 60.0);
-  }
+  static_cast<ibvs_test::Run&>(run) =
+      ibvs_test::converge(servo, ibvs_test::square(0.25, 3.0), start, [&](const ServoOutput& out) {
+        run.max_lateral = std::max(run.max_lateral, out.velocity.head<2>().norm() + out.velocity.segment<2>(3).norm());
+      });
   return run;
 }
 

@@ -217,39 +217,13 @@ void bad_input() {
   CHECK(servo.update(in, wrong) == Status::invalid_input);
 }
 
-// Closed loop: camera starts displaced and rotated, exact SE(3) integration.
-int converge(const Layout& L, InteractionMatrix mode, double lambda, const Twist& start) {
-  const auto Pw = ibvs_test::square(0.25, 3.0);
-  ServoOptions o;
-  o.gain = 1.0;
-  o.damping = lambda;
-  o.jacobian = mode;
-  Servo servo(L, o);
-  ServoInput in(L);
-  ServoOutput out(L);
-  ibvs_test::look(Pose::Identity(), Pw, in.uv_desired, in.depth_desired);
-  Pose T = ibvs_test::pose(start);
-  const double dt = 1.0 / 60.0;
-  for (int k = 0; k < 3000; ++k) {
-    ibvs_test::look(T, Pw, in.uv, in.depth);
-    if (servo.update(in, out) == Status::invalid_input) return -1;
-    if (out.error_norm < 1e-9) {
-      const double dp = T.topRightCorner<3, 1>().norm();
-      const double dr = Eigen::AngleAxisd(Eigen::Matrix3d(T.topLeftCorner<3, 3>())).angle();
-      return dp < 1e-5 && dr < 1e-5 ? k : -2;
-    }
-    T = T * se3_exp(out.velocity * dt);
-  }
-  return -3;
-}
-
 void closed_loop() {
   Twist easy;
   easy << 0.03, -0.02, -0.2, 0.02, -0.02, 0.3;  // every scheme and mode converges from here
   for (const Layout& L : {Layout::cartesian(4), Layout::polar(4), per_point_hybrid, Layout::stacked(4)})
     for (auto mode : {InteractionMatrix::current, InteractionMatrix::desired, InteractionMatrix::mean})
       for (double lambda : {0.0, 0.001}) {
-        const int k = converge(L, mode, lambda, easy);
+        const int k = ibvs_test::converge(L, mode, lambda, easy).frames;
         ibvs_test::report(k > 0, "closed loop converges", __FILE__, __LINE__,
                           L.describe() + " mode=" + std::to_string(int(mode)) + " lambda=" + std::to_string(lambda) +
                               " -> " + std::to_string(k));
