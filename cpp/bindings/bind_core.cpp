@@ -2,6 +2,7 @@
 // pseudoinverse, Servo. Argument conversion only; the logic is in cpp/src.
 #include "convert.hpp"
 #include "ibvs/ibvs.hpp"
+#include "py_servo.hpp"
 
 #include <pybind11/operators.h>
 #include <pybind11/stl.h>
@@ -14,6 +15,7 @@
 namespace py = pybind11;
 using namespace ibvs;
 using namespace ibvs::py_convert;
+using ibvs::py_servo::PyServo;
 
 namespace {
 
@@ -98,34 +100,27 @@ std::string number(double x) {
   return s;
 }
 
-// Python face of Servo: the C++ object plus its output and depth buffers.
-struct PyServo {
-  PyServo(Layout layout, ServoOptions o) : servo(std::move(layout), o), out(servo.layout()) {}
-  Servo servo;
-  ServoOutput out;
-  Eigen::VectorXd z, zd;
-
-  ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
-    const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
-    const auto uv = points(uv_a, "uv");
-    const auto uvd = points(uvd_a, "uv_desired");
-    const Eigen::Index n = servo.layout().n_points();
-    depths(depth_obj, "depth", n, z);
-    if (zd_obj.is_none()) {
-      if (servo.options().jacobian != InteractionMatrix::current)
-        throw py::value_error(std::string("depth_desired is required when jacobian='") +
-                              interaction_name(servo.options().jacobian) + "'");
-      zd = z;
-    } else {
-      depths(zd_obj, "depth_desired", n, zd);
-    }
-    servo.validate(uv, z, uvd, zd);
-    servo.update(uv, z, uvd, zd, out);
-    return out;
-  }
-};
-
 }  // namespace
+
+// Python's Servo.update: numpy arguments, validate() (raises), then the real-time update().
+ServoOutput PyServo::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
+  const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
+  const auto uv = points(uv_a, "uv");
+  const auto uvd = points(uvd_a, "uv_desired");
+  const Eigen::Index n = servo.layout().n_points();
+  depths(depth_obj, "depth", n, z);
+  if (zd_obj.is_none()) {
+    if (servo.options().jacobian != InteractionMatrix::current)
+      throw py::value_error(std::string("depth_desired is required when jacobian='") +
+                            interaction_name(servo.options().jacobian) + "'");
+    zd = z;
+  } else {
+    depths(zd_obj, "depth_desired", n, zd);
+  }
+  servo.validate(uv, z, uvd, zd);
+  servo.update(uv, z, uvd, zd, out);
+  return out;
+}
 
 void bind_core(py::module_& m) {
   py::register_exception_translator([](std::exception_ptr p) {

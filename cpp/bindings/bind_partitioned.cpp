@@ -2,6 +2,7 @@
 // functions. Argument conversion only; the logic is in cpp/src/partitioned.cpp.
 #include "convert.hpp"
 #include "ibvs/partitioned.hpp"
+#include "py_servo.hpp"
 
 #include <pybind11/stl.h>
 
@@ -10,28 +11,23 @@
 namespace py = pybind11;
 using namespace ibvs;
 using namespace ibvs::py_convert;
+using ibvs::py_servo::PyPartitioned;
+
+// Python's PartitionedServo.update: numpy arguments, validate() (raises), then update().
+ServoOutput PyPartitioned::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
+  const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
+  const auto uv = points(uv_a, "uv");
+  const auto uvd = points(uvd_a, "uv_desired");
+  const Eigen::Index n = servo.layout().n_points();
+  depths(depth_obj, "depth", n, z);
+  if (zd_obj.is_none()) zd = z;
+  else depths(zd_obj, "depth_desired", n, zd);
+  servo.validate(uv, z, uvd);
+  servo.update(uv, z, uvd, zd, out);
+  return out;
+}
 
 namespace {
-
-struct PyPartitioned {
-  PyPartitioned(int n, PartitionedOptions o) : servo(n, o), out(servo.layout()) {}
-  PartitionedServo servo;
-  ServoOutput out;
-  Eigen::VectorXd z, zd;
-
-  ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
-    const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
-    const auto uv = points(uv_a, "uv");
-    const auto uvd = points(uvd_a, "uv_desired");
-    const Eigen::Index n = servo.layout().n_points();
-    depths(depth_obj, "depth", n, z);
-    if (zd_obj.is_none()) zd = z;
-    else depths(zd_obj, "depth_desired", n, zd);
-    servo.validate(uv, z, uvd);
-    servo.update(uv, z, uvd, zd, out);
-    return out;
-  }
-};
 
 void check_depths(const Eigen::Ref<const Points>& p, const Eigen::VectorXd& z) {
   if (z.size() != p.cols()) throw py::value_error("depth must hold one depth per point");

@@ -4,6 +4,7 @@
 #include "convert.hpp"
 #include "ibvs/ibvs.hpp"
 #include "ibvs/sim/sim.hpp"
+#include "py_servo.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -80,20 +81,23 @@ DepthMode depth_mode(py::handle obj) {
   throw py::value_error("depth must be 'exact', 'pose', 'desired' or 'estimated', got '" + s + "'");
 }
 
-// A fresh C++ Servo with the layout and options of the Python ibvs.Servo
-// (the run never mutates the caller's servo).
-Servo servo_copy(const py::module_& core, py::handle obj) {
-  if (!py::isinstance(obj, core.attr("Servo")))
-    throw py::type_error("servo must be an ibvs.Servo, got " +
-                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
-  ServoOptions o;
-  o.gain = obj.attr("gain").cast<double>();
-  o.damping = obj.attr("damping").cast<double>();
-  const auto j = obj.attr("jacobian_mode").cast<std::string>();
-  o.jacobian = j == "desired" ? InteractionMatrix::desired : j == "mean" ? InteractionMatrix::mean : InteractionMatrix::current;
-  o.polar_min_radius = obj.attr("polar_min_radius").cast<double>();
-  o.diagnostics = true;
-  return Servo(obj.attr("layout").cast<Layout>(), o);
+// A fresh C++ servo with exactly the layout and options of the C++ servo the
+// Python ibvs.Servo / ibvs.PartitionedServo holds (the episode owns its servo;
+// the run never mutates the caller's). A Servo copy keeps its diagnostics on:
+// the history records sigma_min.
+AnyServo servo_copy(py::handle obj) {
+  if (py::isinstance<py_servo::PyServo>(obj)) {
+    const Servo& s = obj.cast<const py_servo::PyServo&>().servo;
+    ServoOptions o = s.options();
+    o.diagnostics = true;
+    return Servo(s.layout(), o);
+  }
+  if (py::isinstance<py_servo::PyPartitioned>(obj)) {
+    const PartitionedServo& s = obj.cast<const py_servo::PyPartitioned&>().servo;
+    return PartitionedServo(s.layout().n_points(), s.options());
+  }
+  throw py::type_error("servo must be an ibvs.Servo or an ibvs.PartitionedServo, got " +
+                       std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
 }
 
 py::dict result_dict(const EpisodeResult& r, bool gantry) {
@@ -262,7 +266,7 @@ normalize(): measurement -> normalised with kdu.)")
 
   s.def(
       "_run",
-      [m](py::handle servo, const Camera& camera, const Target& target, py::handle start, py::handle goal,
+      [](py::handle servo, const Camera& camera, const Target& target, py::handle start, py::handle goal,
           std::optional<Gantry> robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain) {
@@ -279,7 +283,7 @@ normalize(): measurement -> normalised with kdu.)")
         o.depth_scale = depth_scale;
         o.boundary_margin = boundary_margin;
         o.boundary_gain = boundary_gain;
-        Servo sv = servo_copy(m, servo);
+        AnyServo sv = servo_copy(servo);
         if (robot) {
           const Joints qs = joints_arg(start, "start");
           const CArray g = as_array(goal, "goal");

@@ -47,37 +47,43 @@ void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 using namespace ibvs;
 
 // A whole simulated episode (the per-frame loop: camera model, noise, latency,
-// pose estimate, depth estimate, depth error, image-boundary potential, Servo,
-// gantry) allocates nothing once the Episode is built.
+// pose estimate, depth estimate, depth error, image-boundary potential, Servo
+// or PartitionedServo, gantry) allocates nothing once the Episode is built.
 void episode_allocates_nothing() {
   using namespace sim_cases;
-  for (bool gantry : {false, true}) {
-    for (DepthMode depth : {DepthMode::exact, DepthMode::pose, DepthMode::desired, DepthMode::estimated}) {
-      EpisodeOptions o;
-      o.duration = 5.0;
-      o.noise = gantry ? 0.3 : 1e-4;
-      o.latency = 2;
-      o.depth = depth;
-      o.depth_scale = 1.1;                          // depth error
-      o.boundary_margin = gantry ? 150.0 : 0.1;    // image-boundary potential active
-      o.boundary_gain = 0.1;
-      ServoOptions so;
-      so.gain = 1.0;
-      Servo servo(Layout::stacked(4), so);
-      const Gantry g = Gantry::afma6();
-      std::optional<Episode> e;
-      if (gantry)
-        e.emplace(std::move(servo), Camera::afma6(), gantry_target(g), g, o);
-      else
-        e.emplace(std::move(servo), Camera::normalized(0.3), Target::paper(), o);
-      const long before = news.load();
-      Eigen::internal::set_is_malloc_allowed(false);
-      const EpisodeResult& r = gantry ? e->run(gantry_start(), gantry_goal()) : e->run(general_motion(), Pose::Identity());
-      Eigen::internal::set_is_malloc_allowed(true);
-      const long during = news.load() - before;
-      ibvs_test::report(during == 0, "no allocation in Episode::run", __FILE__, __LINE__,
-                        std::string(gantry ? "gantry " : "free ") + to_string(depth) + ": " + std::to_string(during));
-      CHECK(r.history.frames > 10);
+  for (bool partitioned : {false, true}) {
+    for (bool gantry : {false, true}) {
+      for (DepthMode depth : {DepthMode::exact, DepthMode::pose, DepthMode::desired, DepthMode::estimated}) {
+        EpisodeOptions o;
+        o.duration = 5.0;
+        o.noise = gantry ? 0.3 : 1e-4;
+        o.latency = 2;
+        o.depth = depth;
+        o.depth_scale = 1.1;                          // depth error
+        o.boundary_margin = gantry ? 150.0 : 0.1;    // image-boundary potential active
+        o.boundary_gain = 0.1;
+        ServoOptions so;
+        so.gain = 1.0;
+        PartitionedOptions po;
+        po.gain = 1.0;
+        AnyServo servo = partitioned ? AnyServo(PartitionedServo(4, po)) : AnyServo(Servo(Layout::stacked(4), so));
+        const Gantry g = Gantry::afma6();
+        std::optional<Episode> e;
+        if (gantry)
+          e.emplace(std::move(servo), Camera::afma6(), gantry_target(g), g, o);
+        else
+          e.emplace(std::move(servo), Camera::normalized(0.3), Target::paper(), o);
+        const long before = news.load();
+        Eigen::internal::set_is_malloc_allowed(false);
+        const EpisodeResult& r =
+            gantry ? e->run(gantry_start(), gantry_goal()) : e->run(general_motion(), Pose::Identity());
+        Eigen::internal::set_is_malloc_allowed(true);
+        const long during = news.load() - before;
+        ibvs_test::report(during == 0, "no allocation in Episode::run", __FILE__, __LINE__,
+                          std::string(partitioned ? "partitioned " : "stacked ") + (gantry ? "gantry " : "free ") +
+                              to_string(depth) + ": " + std::to_string(during));
+        CHECK(r.history.frames > 10);
+      }
     }
   }
 }

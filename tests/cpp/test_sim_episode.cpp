@@ -1,5 +1,6 @@
 // Closed-loop episodes: the paper's claims (Section III-A, Figs. 1-3; Section V,
-// Fig. 5; Section III-B on the gantry), the reported events, reproducibility.
+// Fig. 5; Section III-B on the gantry), the partitioned law of Corke & Hutchinson
+// 2001 in the loop, the reported events, reproducibility.
 // Also prints the time of a 600-frame gantry episode (information, not a check).
 #include "check.hpp"
 #include "sim_cases.hpp"
@@ -207,6 +208,52 @@ void noise_latency_depth_modes() {
   }
 }
 
+PartitionedServo partitioned(double gain, int n = 4) {
+  PartitionedOptions o;
+  o.gain = gain;
+  return PartitionedServo(n, o);
+}
+
+// PartitionedServo in the episode: the z-rotation pi is a pure wz with no camera
+// retreat (what the partitioning is for); general motion converges in free flight
+// and on the gantry; the history holds its Cartesian error and the sigma_min of
+// its four (Tx, Ty, wx, wy) columns.
+void partitioned_episodes() {
+  const Camera cam = Camera::normalized(0.3);
+  const Target tgt = Target::paper();
+  Episode e(partitioned(1.0), cam, tgt, opts(20, 1e-5));
+  CHECK(std::holds_alternative<PartitionedServo>(e.servo()));
+  const EpisodeResult r = e.run(half_turn_z(), Pose::Identity());
+  ibvs_test::report(r.status.outcome == Outcome::converged, "partitioned z-rotation pi converges", __FILE__, __LINE__,
+                    to_string(r.status.outcome));
+  const Twist m = max_abs_twist(r.history);
+  CHECK_NEAR(m(5), pi, 1e-9);  // the first wz = gain * pi
+  CHECK(m.head<5>().maxCoeff() < 1e-9 * m(5));
+  CHECK(r.metrics.camera_retreat < 1e-9);
+  CHECK(r.metrics.path_length < 1e-9);
+  CHECK(r.metrics.final_rotation_error < 1e-4);
+  CHECK(r.history.error.cols() == 8);
+  bool sigma_ok = true;
+  for (int k = 0; k < r.history.frames; ++k) sigma_ok = sigma_ok && r.history.sigma_min(k) > 0.0;
+  CHECK(sigma_ok);
+  // The Episode runs again with the same result (the servo holds no state between runs).
+  CHECK(e.run(half_turn_z(), Pose::Identity()).history.twist == r.history.twist);
+
+  const auto f = run_episode(partitioned(1.0), cam, tgt, sim_cases::general_motion(), Pose::Identity(), opts(30, 1e-5));
+  ibvs_test::report(f.status.outcome == Outcome::converged, "partitioned general motion converges", __FILE__, __LINE__,
+                    to_string(f.status.outcome));
+  CHECK(f.metrics.final_translation_error < 1e-3);
+  const Gantry g = Gantry::afma6();
+  const auto q = run_episode(partitioned(2.0), Camera::afma6(), gantry_target(g), g, gantry_start(), gantry_goal(),
+                             opts(15, 1e-5));
+  ibvs_test::report(q.status.outcome == Outcome::converged, "partitioned gantry general motion converges", __FILE__,
+                    __LINE__, to_string(q.status.outcome));
+  CHECK(q.metrics.final_translation_error < 1e-3);
+
+  // Its point count must match the target's.
+  CHECK_THROWS(run_episode(partitioned(1.0, 3), cam, tgt, half_turn_z(), Pose::Identity()));
+}
+
 void timing() {
   const Gantry g = Gantry::afma6();
   EpisodeOptions o = opts(10, 0.0);  // tolerance 0: all 600 frames
@@ -230,5 +277,6 @@ void run_tests() {
   gantry_general_motion();
   events_are_reported();
   noise_latency_depth_modes();
+  partitioned_episodes();
   timing();
 }

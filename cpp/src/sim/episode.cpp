@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <variant>
 
 namespace ibvs::sim {
 
@@ -66,11 +67,15 @@ double rotation_angle(const Eigen::Matrix3d& Ra, const Eigen::Matrix3d& Rb) noex
   return std::atan2(0.5 * w.norm(), 0.5 * (R.trace() - 1.0));
 }
 
+const Layout& layout_of(const AnyServo& servo) noexcept {
+  return std::visit([](const auto& s) -> const Layout& { return s.layout(); }, servo);
+}
+
 }  // namespace
 
-Episode::Episode(Servo servo, Camera camera, Target target, EpisodeOptions options)
+Episode::Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions options)
     : servo_(std::move(servo)),
-      out_(servo_.layout()),
+      out_(layout_of(servo_)),
       camera_(camera),
       target_(std::move(target)),
       options_(options) {
@@ -78,8 +83,8 @@ Episode::Episode(Servo servo, Camera camera, Target target, EpisodeOptions optio
   target_.validate();
   options_.validate();
   const int n = target_.size();
-  if (servo_.layout().n_points() != n)
-    throw std::invalid_argument("ibvs: servo layout has " + std::to_string(servo_.layout().n_points()) +
+  if (layout_of(servo_).n_points() != n)
+    throw std::invalid_argument("ibvs: servo layout has " + std::to_string(layout_of(servo_).n_points()) +
                                 " points but the target has " + std::to_string(n));
   if (options_.depth == DepthMode::pose) estimator_.emplace(target_.points);
   world_points_ = target_.world_points();
@@ -97,7 +102,7 @@ Episode::Episode(Servo servo, Camera camera, Target target, EpisodeOptions optio
   ring_twist_.resize(slots, 6);
   const long frames = std::lround(options_.duration * camera_.fps);
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
-  const Eigen::Index K = frames, m = servo_.layout().rows();
+  const Eigen::Index K = frames, m = layout_of(servo_).rows();
   History& h = result_.history;
   h.time.resize(K);
   h.pose.resize(K, 16);
@@ -115,7 +120,7 @@ Episode::Episode(Servo servo, Camera camera, Target target, EpisodeOptions optio
   result_.depth_desired.resize(n);
 }
 
-Episode::Episode(Servo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options)
+Episode::Episode(AnyServo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options)
     : Episode(std::move(servo), camera, std::move(target), options) {
   gantry.validate();
   gantry_ = gantry;
@@ -274,8 +279,10 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
     }
     if (options_.depth_scale != 1.0 && options_.depth != DepthMode::estimated) z_ *= options_.depth_scale;
 
-    // 5. Control.
-    const Status s = servo_.update(uv_, z_, result_.uv_desired, result_.depth_desired, out_);
+    // 5. Control, by whichever law the episode holds (both update() are noexcept and allocation-free).
+    const Status s = std::visit(
+        [&](auto& law) noexcept { return law.update(uv_, z_, result_.uv_desired, result_.depth_desired, out_); },
+        servo_);
     for (int i = 0; i < n; ++i) {
       h.uv(k, 2 * i) = uv_(0, i);
       h.uv(k, 2 * i + 1) = uv_(1, i);
@@ -403,13 +410,13 @@ void Episode::estimate_depth(int seen) noexcept {
   }
 }
 
-EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Pose& start,
+EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Pose& start,
                           const Pose& goal, const EpisodeOptions& options) {
   Episode e(std::move(servo), camera, target, options);
   return e.run(start, goal);
 }
 
-EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Gantry& gantry,
+EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Gantry& gantry,
                           const Joints& q_start, const Joints& q_goal, const EpisodeOptions& options) {
   Episode e(std::move(servo), camera, target, gantry, options);
   return e.run(q_start, q_goal);

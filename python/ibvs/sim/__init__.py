@@ -1,4 +1,4 @@
-"""ibvs.sim: closed-loop simulation of a Servo on a free-flying camera or an Afma6-like gantry.
+"""ibvs.sim: closed-loop simulation of a servo on a free-flying camera or an Afma6-like gantry.
 
 The whole loop runs in C++ (one call per episode); this module configures it and
 returns the history as numpy arrays.
@@ -16,10 +16,11 @@ twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- came
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Union
 
 import numpy as np
 
+from .._core import PartitionedServo, Servo
 from .._core import sim as _sim
 from . import cases
 from .poses import pose, rotation
@@ -87,9 +88,12 @@ class History:
     """Per-frame arrays (K frames). NaN where the last frame could not compute a value.
 
     time (K,) s; pose (K, 4, 4) world <- camera; twist (K, 6) commanded camera twist;
-    uv (K, N, 2) and rtheta (K, N, 2) the points the controller saw (normalised, undistorted);
-    depth (K, N) the depths it was given; error (K, M) f (-) f*; error_norm (K,);
-    sigma_min (K,) smallest singular value of the interaction matrix.
+    uv (K, N, 2) and rtheta (K, N, 2) the points the controller saw (normalised, undistorted;
+    rtheta is the same points in polar form whatever the servo's features);
+    depth (K, N) the depths it was given; error (K, M) the servo's f (-) f* (for a
+    PartitionedServo the Cartesian error, M = 2N); error_norm (K,);
+    sigma_min (K,) smallest singular value of the servo's interaction matrix (for a
+    PartitionedServo: of the four (Tx, Ty, wx, wy) columns of its Cartesian Jacobian).
     Gantry only (else None): q (K, 6), qdot (K, 6) joint velocity applied after the frame,
     manipulability (K,) |det| of the robot's camera Jacobian (= |cos q5|).
     """
@@ -143,7 +147,7 @@ def _real(x, name: str) -> float:
 
 
 def run(
-    servo,
+    servo: Union[Servo, PartitionedServo],
     camera: Camera,
     target: Target,
     start,
@@ -164,8 +168,10 @@ def run(
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
-    servo: an ibvs.Servo; its layout (Cartesian, polar, stacked or per-point hybrid),
-        gain, damping and jacobian mode are used (the object itself is not modified).
+    servo: an ibvs.Servo (any layout and every option: gain or AdaptiveGain, damping,
+        jacobian mode, polar_min_radius, max_linear_speed / max_angular_speed) or an
+        ibvs.PartitionedServo. The episode runs a copy with the same options, with its
+        diagnostics on (the history records sigma_min); the object itself is not modified.
     camera, target: a Camera and a Target with as many points as the servo's layout.
     start, goal: 4x4 world <- camera poses; with robot (a Gantry), start is 6 joint
         positions and goal 6 joint positions or a 4x4 pose. The desired features are

@@ -1,6 +1,7 @@
 // The closed loop of one episode, entirely in C++: camera -> measurement
-// (distortion, noise, latency) -> undistorted normalised points -> Servo ->
-// camera twist -> free-flying camera or gantry joints -> next frame.
+// (distortion, noise, latency) -> undistorted normalised points -> servo (a
+// Servo or a PartitionedServo) -> camera twist -> free-flying camera or gantry
+// joints -> next frame.
 //
 // Each frame k (period dt = 1 / fps):
 //   1. true camera pose T_wc(k): from the exact SE(3) integration of the
@@ -17,7 +18,8 @@
 //      the constant desired depths, or an online estimate from successive
 //      frames and the known camera motion (DepthMode::estimated, below); all
 //      times depth_scale (a calibration error);
-//   5. Servo::update (paper eqs. 11-13) gives the camera twist; with
+//   5. Servo::update (paper eqs. 11-13) or PartitionedServo::update (Corke &
+//      Hutchinson 2001) gives the camera twist; with
 //      boundary_margin > 0 an image-boundary potential adds a retreat to Tz
 //      (paper Section IV, below); the episode
 //      ends when the error norm is under tolerance (converged), the servo
@@ -62,6 +64,7 @@
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
 
+#include "ibvs/partitioned.hpp"
 #include "ibvs/servo.hpp"
 #include "ibvs/sim/camera.hpp"
 #include "ibvs/sim/gantry.hpp"
@@ -73,8 +76,14 @@
 #include <cstdint>
 #include <optional>
 #include <random>
+#include <variant>
 
 namespace ibvs::sim {
+
+/// The control laws an episode can run: the layout-based law (Cartesian, polar,
+/// hybrid, stacked, cylindrical, automatic hybrid; any ServoOptions) or the
+/// partitioned law. Both fill a ServoOutput; the episode calls whichever it holds.
+using AnyServo = std::variant<Servo, PartitionedServo>;
 
 /// Depth given to the controller.
 enum class DepthMode : std::uint8_t {
@@ -134,6 +143,15 @@ using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::R
 
 /// Row k = frame k; the first `frames` rows are valid. Quantities the last
 /// frame could not compute (an event stopped it) are NaN.
+///
+/// uv, rtheta and depth record what the controller was given, whatever the
+/// servo does with it (rtheta is the points in polar form, also for a
+/// Cartesian or partitioned servo). error is the servo's ServoOutput::error:
+/// f (-) f* of its layout, the Cartesian error (M = 2N) for a PartitionedServo.
+/// sigma_min is ServoOutput::sigma_min: for a Servo the smallest singular value
+/// of its interaction matrix (NaN, "not computed", when its diagnostics are off
+/// on the damped route), for a PartitionedServo that of the four (Tx, Ty, wx, wy)
+/// columns of its Cartesian Jacobian.
 struct History {
   int frames = 0;
   Eigen::VectorXd time;    ///< s
@@ -141,9 +159,9 @@ struct History {
   RowMatrix q, qdot;       ///< K x 6 (gantry only; 0 columns otherwise): qdot applied after frame k
   RowMatrix twist;         ///< K x 6: commanded camera twist
   RowMatrix uv;            ///< K x 2N: controller's (u, v) per point, normalised
-  RowMatrix rtheta;        ///< K x 2N: the same points as (r, theta)
+  RowMatrix rtheta;        ///< K x 2N: the same points as (r, theta), theta in (-pi, pi]
   RowMatrix depth;         ///< K x N: depths given to the controller
-  RowMatrix error;         ///< K x M: f (-) f*
+  RowMatrix error;         ///< K x M: f (-) f* (the servo's error; M = 2N for a PartitionedServo)
   Eigen::VectorXd error_norm, sigma_min;
   Eigen::VectorXd manipulability;  ///< |det| of the gantry's camera Jacobian (gantry only)
 };
@@ -159,13 +177,14 @@ struct EpisodeResult {
 
 /// One simulated set-up, run as often as wanted. The constructor validates
 /// (throws std::invalid_argument) and allocates; run() only checks its start
-/// and goal (throws) and then loops without allocating.
+/// and goal (throws) and then loops without allocating. The servo (a Servo or a
+/// PartitionedServo, moved in) must have as many points as the target.
 class Episode {
  public:
   /// Free-flying camera.
-  Episode(Servo servo, Camera camera, Target target, EpisodeOptions options = {});
+  Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions options = {});
   /// Camera on the gantry.
-  Episode(Servo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options = {});
+  Episode(AnyServo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options = {});
 
   /// Free-flying: start and goal are world <- camera poses.
   const EpisodeResult& run(const Pose& start, const Pose& goal);
@@ -176,7 +195,8 @@ class Episode {
   const EpisodeResult& result() const noexcept { return result_; }
   int capacity() const noexcept { return static_cast<int>(result_.history.time.size()); }
   bool has_gantry() const noexcept { return gantry_.has_value(); }
-  Servo& servo() noexcept { return servo_; }
+  /// The servo run by this episode (std::get<Servo> or std::get<PartitionedServo>).
+  AnyServo& servo() noexcept { return servo_; }
 
  private:
   void prepare(const Pose& goal);
@@ -184,7 +204,7 @@ class Episode {
   double boundary_tz(int seen) const noexcept;
   void estimate_depth(int k) noexcept;
 
-  Servo servo_;
+  AnyServo servo_;
   ServoOutput out_;
   Camera camera_;
   Target target_;
@@ -209,9 +229,9 @@ class Episode {
 };
 
 /// One call per episode (allocates its Episode; for repeated runs keep an Episode).
-EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Pose& start,
+EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Pose& start,
                           const Pose& goal, const EpisodeOptions& options = {});
-EpisodeResult run_episode(Servo servo, const Camera& camera, const Target& target, const Gantry& gantry,
+EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Gantry& gantry,
                           const Joints& q_start, const Joints& q_goal, const EpisodeOptions& options = {});
 
 }  // namespace ibvs::sim
