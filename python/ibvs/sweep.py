@@ -22,9 +22,10 @@ a millisecond of C++); `scheduler=` (an address or a dask.distributed Client) se
 the same tasks to Dask's distributed scheduler (pip install "ibvs[distributed]").
 Rows are deterministic, so the tables of both paths are identical.
 
-Schemes: SCHEMES maps a name to a factory gain -> servo (an ibvs.Servo, or whatever
-ibvs.sim.run accepts). Add more with register_scheme(); for process pools the factory
-must be picklable (a module-level function or functools.partial of one).
+Schemes: SCHEMES maps a name to a factory gain -> servo (an ibvs.Servo or an
+ibvs.PartitionedServo: whatever ibvs.sim.run accepts). Add more with register_scheme();
+for process pools the factory must be picklable (a module-level function or
+functools.partial of one).
 """
 
 from __future__ import annotations
@@ -89,12 +90,20 @@ def _automatic_servo(gain: float):
     return ibvs.Servo.automatic_hybrid(4, gain=gain)
 
 
+def _partitioned_servo(gain: float):
+    # Corke & Hutchinson 2001: wz from the angle of the segment from point 0 to point 1,
+    # Tz from the square root of the polygon's area, the other four DOF Cartesian.
+    return ibvs.PartitionedServo(4, gain=gain)
+
+
 # Schemes beyond the paper, when the core has them: the (r, r theta) features of Iwatsuki &
-# Okiyama, and the automatic hybrid (polar away from the principal point, Cartesian near it).
+# Okiyama, the automatic hybrid (polar away from the principal point, Cartesian near it)
+# and the partitioned law of Corke & Hutchinson (run by the simulator as a PartitionedServo).
 if hasattr(ibvs.Layout, "cylindrical"):
     SCHEMES["cylindrical"] = _cylindrical_servo
 if hasattr(ibvs.Servo, "automatic_hybrid"):
     SCHEMES["automatic"] = _automatic_servo
+SCHEMES["partitioned"] = _partitioned_servo
 
 
 def register_scheme(name: str, factory: Callable[[float], Any], *, replace: bool = False) -> None:

@@ -1,6 +1,7 @@
 """ibvs.sweep: reproducible rows, resume, aggregate tables, figure, Dask path, CLI."""
 
 import csv
+import pickle
 
 import pytest
 
@@ -108,6 +109,22 @@ def test_registry_and_bad_arguments(tmp_path):
     bad.write_text("a,b\n1,2\n")
     with pytest.raises(ValueError, match="out"):
         sw.sweep(bad, episodes=1, progress=False)
+
+
+def test_partitioned_scheme(tmp_path, capsys):
+    """The partitioned law (a PartitionedServo) is a registered, picklable scheme: a pure rotation
+    about the optical axis needs no camera retreat, unlike Cartesian IBVS."""
+    assert pickle.loads(pickle.dumps(sw.SCHEMES["partitioned"]))(1.0).gain == 1.0
+    rows = sw.sweep(None, jobs=1, schemes=["partitioned", "cartesian"], grid={"rz_deg": [30, 170]}, duration=20.0,
+                    progress=False)
+    by = {(r["scheme"], r["rz_deg"]): r for r in rows}
+    for rz in (30.0, 170.0):
+        assert by[("partitioned", rz)]["outcome"] == "converged"
+        assert by[("partitioned", rz)]["camera_retreat"] < 1e-9
+    assert by[("cartesian", 170.0)]["camera_retreat"] > 0.5
+    assert main(["sweep", "--out", str(tmp_path / "p.csv"), "--episodes", "2", "--schemes", "partitioned",
+                 "--duration", "4", "--jobs", "1", "--quiet"]) == 0
+    assert "| partitioned |" in capsys.readouterr().out
 
 
 def test_gantry_world():
