@@ -1,18 +1,22 @@
-"""Type stubs of the native module ibvs._core (the control-law core)."""
+"""Type stubs of the native module ibvs._core (the control-law core and the simulator's native part).
+
+tests/python/test_stub.py checks that these names, members and parameter names are those of the module.
+"""
 
 from __future__ import annotations
 
 import enum
-from typing import Sequence, Tuple, Union
+from typing import Any, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
 
-ArrayLike = npt.ArrayLike
-FloatArray = npt.NDArray[np.float64]
-Depth = Union[float, npt.ArrayLike]
+# Stub-only aliases (private: the module has no such names).
+_ArrayLike = npt.ArrayLike
+_FloatArray = npt.NDArray[np.float64]
+_Depth = Union[float, npt.ArrayLike]
 
 class Representation(enum.Enum):
     cartesian = 0
@@ -45,21 +49,21 @@ class Layout:
     def __eq__(self, other: object) -> bool: ...
     def __hash__(self) -> int: ...
 
-def features(uv: ArrayLike, layout: Layout) -> FloatArray:
+def features(uv: _ArrayLike, layout: Layout) -> _FloatArray:
     """(M,) stacked features of uv (N, 2)."""
 
-def jacobian(uv: ArrayLike, depth: Depth, layout: Layout, polar_min_radius: float = 1e-3) -> FloatArray:
+def jacobian(uv: _ArrayLike, depth: _Depth, layout: Layout, polar_min_radius: float = 1e-3) -> _FloatArray:
     """(M, 6) stacked image Jacobian."""
 
-def feature_error(f: ArrayLike, f_desired: ArrayLike, layout: Layout) -> FloatArray:
+def feature_error(f: _ArrayLike, f_desired: _ArrayLike, layout: Layout) -> _FloatArray:
     """(M,) f (-) f*, theta rows wrapped into (-pi, pi]."""
 
-def damped_pinv(J: ArrayLike, damping: float = 0.0) -> FloatArray:
+def damped_pinv(J: _ArrayLike, damping: float = 0.0) -> _FloatArray:
     """(6, M) pseudoinverse of J (M, 6)."""
 
-def singular_values(J: ArrayLike) -> FloatArray: ...
-def wrap_angle(angle: Union[float, ArrayLike]) -> Union[float, FloatArray]: ...
-def se3_exp(twist: ArrayLike) -> FloatArray:
+def singular_values(J: _ArrayLike) -> _FloatArray: ...
+def wrap_angle(angle: Union[float, _ArrayLike]) -> Union[float, _FloatArray]: ...
+def se3_exp(twist: _ArrayLike) -> _FloatArray:
     """(4, 4) rigid motion of a twist applied for unit time."""
 
 class AdaptiveGain:
@@ -72,20 +76,20 @@ class AdaptiveGain:
     def at_infinity(self) -> float: ...
     @property
     def slope_at_zero(self) -> float: ...
-    def __call__(self, x: Union[float, ArrayLike]) -> Union[float, FloatArray]: ...
+    def __call__(self, x: Union[float, _ArrayLike]) -> Union[float, _FloatArray]: ...
 
 class ServoResult:
     @property
     def status(self) -> Status: ...
     @property
-    def velocity(self) -> FloatArray:
+    def velocity(self) -> _FloatArray:
         """(6,) camera twist: Tx, Ty, Tz (m/s), wx, wy, wz (rad/s)."""
     @property
-    def error(self) -> FloatArray: ...
+    def error(self) -> _FloatArray: ...
     @property
     def error_norm(self) -> float: ...
     @property
-    def jacobian(self) -> FloatArray: ...
+    def jacobian(self) -> _FloatArray: ...
     @property
     def sigma_min(self) -> float: ...
     @property
@@ -130,7 +134,7 @@ class Servo:
         max_angular_speed: float = ...,
     ) -> Servo: ...
     def update(
-        self, uv: ArrayLike, depth: Depth, uv_desired: ArrayLike, depth_desired: Depth | None = None
+        self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult: ...
     @property
     def layout(self) -> Layout: ...
@@ -153,7 +157,7 @@ class PartitionedServo:
         max_angular_speed: float = ...,
     ) -> None: ...
     def update(
-        self, uv: ArrayLike, depth: Depth, uv_desired: ArrayLike, depth_desired: Depth | None = None
+        self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult: ...
     @property
     def layout(self) -> Layout: ...
@@ -164,7 +168,129 @@ class PartitionedServo:
     @property
     def segment(self) -> Tuple[int, int]: ...
 
-def segment_angle(uv: ArrayLike, i: int, j: int) -> float: ...
-def segment_angle_jacobian(uv: ArrayLike, depth: Depth, i: int, j: int) -> FloatArray: ...
-def area_scale(uv: ArrayLike) -> float: ...
-def area_scale_jacobian(uv: ArrayLike, depth: Depth) -> FloatArray: ...
+def segment_angle(uv: _ArrayLike, i: int, j: int) -> float: ...
+def segment_angle_jacobian(uv: _ArrayLike, depth: _Depth, i: int, j: int) -> _FloatArray: ...
+def area_scale(uv: _ArrayLike) -> float: ...
+def area_scale_jacobian(uv: _ArrayLike, depth: _Depth) -> _FloatArray: ...
+
+class sim:
+    """The simulator's native part. At runtime ibvs._core.sim is a submodule (pybind11
+    def_submodule); a single-file stub cannot declare a submodule, so its contents are
+    declared in this namespace class: attribute access and annotations such as
+    _core.sim.Camera type-check the same. Use ibvs.sim, not this."""
+
+    class Camera:
+        """Pinhole camera with ViSP's first-order radial distortion (measurement units: pixels,
+        or normalised coordinates for Camera.normalized())."""
+
+        def __init__(
+            self,
+            px: float,
+            py: float,
+            u0: float,
+            v0: float,
+            kud: float = 0.0,
+            kdu: float = 0.0,
+            width: float = 640.0,
+            height: float = 480.0,
+            fps: float = 60.0,
+        ) -> None: ...
+        @staticmethod
+        def normalized(bounds: float = 0.3, fps: float = 60.0) -> sim.Camera: ...
+        @staticmethod
+        def afma6() -> sim.Camera: ...
+        @property
+        def px(self) -> float: ...
+        @property
+        def py(self) -> float: ...
+        @property
+        def u0(self) -> float: ...
+        @property
+        def v0(self) -> float: ...
+        @property
+        def kud(self) -> float: ...
+        @property
+        def kdu(self) -> float: ...
+        @property
+        def bounds(self) -> Tuple[float, float, float, float]:
+            """(u_min, u_max, v_min, v_max) in measurement units."""
+        @property
+        def fps(self) -> float: ...
+        def project(self, xy: _ArrayLike) -> _FloatArray:
+            """Normalised points (N, 2) -> measurement (N, 2), distorted with kud."""
+        def normalize(self, uv: _ArrayLike) -> _FloatArray:
+            """Measurement points (N, 2) -> normalised (N, 2), undistorted with kdu."""
+
+    class Target:
+        """Points (N, 3) in the target frame and the target's world pose (4x4)."""
+
+        def __init__(self, points: _ArrayLike, pose: _ArrayLike | None = None) -> None: ...
+        @staticmethod
+        def paper() -> sim.Target: ...
+        @staticmethod
+        def square(side: float = 0.1, pose: _ArrayLike | None = None) -> sim.Target: ...
+        @property
+        def points(self) -> _FloatArray:
+            """(N, 3), target frame."""
+        @property
+        def pose(self) -> _FloatArray:
+            """world <- target, 4x4."""
+        def world_points(self) -> _FloatArray:
+            """(N, 3), world frame."""
+        @property
+        def planar(self) -> bool: ...
+        def __len__(self) -> int: ...
+
+    class Gantry:
+        """Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange."""
+
+        @staticmethod
+        def afma6() -> sim.Gantry: ...
+        @property
+        def q_min(self) -> _FloatArray: ...
+        @property
+        def q_max(self) -> _FloatArray: ...
+        @property
+        def qdot_max(self) -> _FloatArray: ...
+        @property
+        def mount(self) -> _FloatArray:
+            """end-effector <- camera, 4x4."""
+        @property
+        def coupling(self) -> float: ...
+        @property
+        def offset(self) -> float: ...
+        def with_limits(
+            self,
+            q_min: _ArrayLike | None = None,
+            q_max: _ArrayLike | None = None,
+            qdot_max: _ArrayLike | None = None,
+        ) -> sim.Gantry: ...
+        def end_effector(self, q: _ArrayLike) -> _FloatArray: ...
+        def camera(self, q: _ArrayLike) -> _FloatArray: ...
+        def jacobian(self, q: _ArrayLike) -> _FloatArray: ...
+        def joint_velocity(self, q: _ArrayLike, twist: _ArrayLike) -> _FloatArray: ...
+        def manipulability(self, q: _ArrayLike) -> float: ...
+        def outside_limits(self, q: _ArrayLike) -> int: ...
+
+    @staticmethod
+    def _run(
+        servo: Union[Servo, PartitionedServo],
+        camera: sim.Camera,
+        target: sim.Target,
+        start: _ArrayLike,
+        goal: _ArrayLike,
+        robot: sim.Gantry | None = None,
+        duration: float = 10.0,
+        noise: float = 0.0,
+        latency: int = 0,
+        depth: str = "exact",
+        seed: int = 0,
+        tolerance: float = 1e-4,
+        max_depth_ratio: float = 10.0,
+        max_error_ratio: float = 100.0,
+        stop_on_singular: bool = True,
+        depth_scale: float = 1.0,
+        boundary_margin: float = 0.0,
+        boundary_gain: float = 0.1,
+    ) -> dict[str, Any]:
+        """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""
