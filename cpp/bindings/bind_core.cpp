@@ -7,6 +7,7 @@
 #include <pybind11/operators.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <limits>
 
 #include <stdexcept>
@@ -304,14 +305,18 @@ slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(.
       .def_readonly("error", &ServoOutput::error, "Feature error f (-) f* (M,).")
       .def_readonly("error_norm", &ServoOutput::error_norm, "Euclidean norm of error.")
       .def_readonly("jacobian", &ServoOutput::jacobian, "Interaction matrix used (M, 6).")
-      .def_readonly("sigma_min", &ServoOutput::sigma_min, "Smallest singular value of jacobian.")
-      .def_readonly("sigma_max", &ServoOutput::sigma_max, "Largest singular value of jacobian.")
+      .def_readonly("sigma_min", &ServoOutput::sigma_min,
+                    "Smallest singular value of jacobian; NaN if not computed (diagnostics=False with damping > 0).")
+      .def_readonly("sigma_max", &ServoOutput::sigma_max,
+                    "Largest singular value of jacobian; NaN if not computed (diagnostics=False with damping > 0).")
       .def_property_readonly(
           "condition",
           [](const ServoOutput& o) {
+            // NaN propagates when the singular values were not computed; inf only for a truly singular J.
+            if (std::isnan(o.sigma_min) || std::isnan(o.sigma_max)) return std::numeric_limits<double>::quiet_NaN();
             return o.sigma_min > 0.0 ? o.sigma_max / o.sigma_min : std::numeric_limits<double>::infinity();
           },
-          "sigma_max / sigma_min (inf when singular).")
+          "sigma_max / sigma_min (inf when singular; NaN if the singular values were not computed).")
       .def_readonly("polar_fallbacks", &ServoOutput::polar_fallbacks,
                     "Polar blocks computed as Cartesian this step (point within polar_min_radius of the centre).")
       .def_readonly("gain", &ServoOutput::gain, "The gain applied this step (constant, or adaptive gain of error_norm).")

@@ -75,6 +75,27 @@ def test_result_shapes_and_types():
     assert "ServoResult" in repr(res) and "stacked(4)" in repr(ibvs.Servo(LAYOUTS["stacked"], gain=1.0))
 
 
+def test_diagnostics_off_reports_nan_not_a_number_that_looks_valid():
+    """With diagnostics=False the damped route skips the singular values: sigma_min, sigma_max and
+    condition are NaN (not computed), while the twist equals the diagnostics-on twist exactly."""
+    start = np.eye(4)
+    start[:3, 3] = [0.05, -0.03, -0.2]
+    uv, z = look(start)
+    uvd, zd = look(np.eye(4))
+    on = ibvs.Servo(LAYOUTS["cartesian"], gain=1.0, damping=0.01).update(uv, z, uvd)
+    off = ibvs.Servo(LAYOUTS["cartesian"], gain=1.0, damping=0.01, diagnostics=False).update(uv, z, uvd)
+    np.testing.assert_array_equal(off.velocity, on.velocity)
+    assert np.isnan(off.sigma_min) and np.isnan(off.sigma_max) and np.isnan(off.condition)
+    assert np.isfinite(on.condition) and on.condition >= 1.0
+
+
+def test_condition_is_inf_for_a_singular_jacobian():
+    """One point gives a rank-2 J: sigma_min is 0 (to rounding) and condition is inf or huge, never NaN."""
+    res = ibvs.Servo(ibvs.Layout.cartesian(1), gain=1.0).update([[0.1, 0.2]], 1.0, [[0.0, 0.0]])
+    assert res.sigma_min < 1e-6 * res.sigma_max
+    assert not np.isnan(res.condition) and res.condition > 1e6
+
+
 # ---- the paper's claims, visible in the first control step (Section III-A, Fig. 2) -------------------
 def z_rotation_pi():
     uvd, zd = look(np.eye(4))
