@@ -38,15 +38,33 @@ def test_servoing_with_the_estimate_converges(layout):
 
 
 def test_estimate_on_the_gantry():
-    # Twist from the joints (J(q) qdot); the distorted camera's kud / kdu mismatch biases the
-    # undistorted points, hence the estimate, by about 2 %.
+    # The filter predicts with the camera motion the joints produced (forward kinematics at both
+    # frames), so on the distorted camera only the kud / kdu model residue is left (~0.05 %).
     case = sim.cases.gantry_general_motion()
     servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=2.0)
     r = sim.run(servo, case.camera, case.target, case.start, case.goal, robot=case.robot, duration=15.0,
                 depth="estimated", tolerance=1e-4)
     assert r.status.outcome == "converged", r
     rel = np.abs(r.history.depth / true_depths(r, case.target) - 1)
-    assert rel[0].max() > 0.1 and rel[10:].max() < 0.03
+    assert rel[0].max() > 0.1 and rel[10:].max() < 0.005
+
+
+@pytest.mark.parametrize("latency", [0, 1])
+def test_estimate_with_pixel_noise_is_unbiased(latency):
+    """0.5 px of noise, no latency: the twist of each step was computed from the previous noisy frame.
+    A filter that differences raw frames regresses that frame's noise on a motion correlated with
+    it and drifts to its clamp; the (x, y, rho) filter stays within a few % after 2 s and under
+    1 % in the last second, for every seed, and the servo ends as close as with exact depth."""
+    case = sim.cases.gantry_general_motion()
+    kw = dict(robot=case.robot, duration=15.0, noise=0.5, latency=latency, tolerance=0.0)
+    for seed in range(8):
+        servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=2.0)
+        r = sim.run(servo, case.camera, case.target, case.start, case.goal, depth="estimated", seed=seed, **kw)
+        exact = sim.run(servo, case.camera, case.target, case.start, case.goal, depth="exact", seed=seed, **kw)
+        assert r.status.outcome == "timeout", r  # tolerance 0: the full 15 s
+        rel = np.abs(r.history.depth / true_depths(r, case.target) - 1)
+        assert rel[120:].max() < 0.03 and rel[-60:].max() < 0.01, (seed, rel[120:].max(), rel[-60:].max())
+        assert r.metrics.final_translation_error < 2 * exact.metrics.final_translation_error + 1e-3
 
 
 def test_depth_scale():

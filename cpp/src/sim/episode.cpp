@@ -96,10 +96,9 @@ Episode::Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions op
   uv_.resize(2, n);
   z_.resize(n);
   desired_distance_.resize(4, n);
-  rho_.resize(n);
-  rho_var_.resize(n);
-  uv_prev_.resize(2, n);
-  ring_twist_.resize(slots, 6);
+  est_.resize(3, n);
+  est_cov_.resize(n);
+  ring_motion_.assign(static_cast<std::size_t>(slots), Pose::Identity());
   const long frames = std::lround(options_.duration * camera_.fps);
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
   const Eigen::Index K = frames, m = layout_of(servo_).rows();
@@ -257,16 +256,16 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
       case DepthMode::desired: z_ = result_.depth_desired; break;
       case DepthMode::estimated:
         if (k == 0) {
+          const double r = depth_measurement_variance();
           for (int i = 0; i < n; ++i) {
-            rho_(i) = 1.0 / (options_.depth_scale * result_.depth_desired(i));
-            rho_var_(i) = rho_(i) * rho_(i);  // 100 % prior uncertainty
+            const double rho = 1.0 / (options_.depth_scale * result_.depth_desired(i));
+            est_.col(i) << uv_.col(i), rho;
+            est_cov_[i] = Eigen::Vector3d(r, r, rho * rho).asDiagonal();  // 100 % prior uncertainty on rho
           }
-          uv_prev_ = uv_;
         } else if (k > options_.latency) {  // a new frame reached the controller
           estimate_depth(k - options_.latency);
-          uv_prev_ = uv_;
         }
-        z_ = rho_.cwiseInverse();
+        z_ = est_.row(2).transpose().cwiseInverse();
         break;
       case DepthMode::pose: {
         // From the image alone (the homography step needs no initial guess);
@@ -332,13 +331,17 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
         st = {Outcome::joint_limit, k, -1, j};
         break;
       }
-      if (options_.depth == DepthMode::estimated)  // the camera twist the joints really produce
-        ring_twist_.row(k % slots) = (gantry_->jacobian(q) * qdot).transpose();
       q = q_next;
       T_next = gantry_->camera(q);
     } else {
-      ring_twist_.row(k % slots) = out_.velocity.transpose();
       T_next = T_wc * se3_exp(out_.velocity * dt);  // exact SE(3) integration of the twist
+    }
+    if (options_.depth == DepthMode::estimated) {  // the camera's motion over the period, as odometry knows it
+      Pose& M = ring_motion_[static_cast<std::size_t>(k % slots)];
+      M.setIdentity();
+      M.topLeftCorner<3, 3>() = T_wc.topLeftCorner<3, 3>().transpose() * T_next.topLeftCorner<3, 3>();
+      M.topRightCorner<3, 1>() =
+          T_wc.topLeftCorner<3, 3>().transpose() * (T_next.topRightCorner<3, 1>() - T_wc.topRightCorner<3, 1>());
     }
     mt.path_length += (T_next.topRightCorner<3, 1>() - T_wc.topRightCorner<3, 1>()).norm();
     T_wc = T_next;
@@ -378,35 +381,58 @@ double Episode::boundary_tz(int seen) const noexcept {
   return std::isfinite(tz) ? tz : 0.0;
 }
 
-// One step of the per-point inverse-depth Kalman filter (see episode.hpp)
-// between the previous controller points uv_prev_ (frame `seen` - 1) and uv_
-// (frame `seen`), with the camera twist applied in between.
+// Variance of a measured point in normalised units: the pixel noise, plus a
+// floor (about 0.01 px) for what the model leaves out (integration of the
+// twist over the period, the distortion model's kud / kdu mismatch).
+double Episode::depth_measurement_variance() const noexcept {
+  const double sigma = options_.noise / std::min(camera_.px, camera_.py);
+  return sigma * sigma + 1e-10;
+}
+
+// One predict-update step of each point's (x, y, rho) Kalman filter (see
+// episode.hpp) from the controller's frame `seen` - 1 to frame `seen` (uv_),
+// across the camera's motion M between them (new camera pose in the old frame).
 void Episode::estimate_depth(int seen) noexcept {
   const int slots = options_.latency + 1;
-  const double dt = 1.0 / camera_.fps;
-  const auto v = ring_twist_.row((seen - 1) % slots);
-  const double Tx = v(0), Ty = v(1), Tz = v(2), wx = v(3), wy = v(4), wz = v(5);
-  const double sigma = options_.noise / std::min(camera_.px, camera_.py);  // normalised units
-  const double R = 2.0 * sigma * sigma / (dt * dt) + 1e-6;  // image-velocity variance, + discretisation floor
+  const Pose& M = ring_motion_[static_cast<std::size_t>((seen - 1) % slots)];
+  const Eigen::Matrix3d Rt = M.topLeftCorner<3, 3>().transpose();
+  const Eigen::Vector3d t = M.topRightCorner<3, 1>();
+  const double r = depth_measurement_variance();
   for (int i = 0; i < target_.size(); ++i) {
-    const double x0 = uv_prev_(0, i), y0 = uv_prev_(1, i), x1 = uv_(0, i), y1 = uv_(1, i);
-    const double x = 0.5 * (x0 + x1), y = 0.5 * (y0 + y1);
-    // prediction by the depth dynamics (midpoint rule): rho_dot = rho^2 Tz + rho (wx y - wy x)
-    double rho = rho_(i);
-    const double rho_mid = rho + 0.5 * dt * (rho * rho * Tz + rho * (wx * y0 - wy * x0));
-    rho += dt * (rho_mid * rho_mid * Tz + rho_mid * (wx * y - wy * x));
-    const double P = rho_var_(i) + 1e-8 * rho * rho;  // 0.01 % relative process noise per frame
-    // measurement: image velocity minus its rotational part = rho * a
-    const double bx = (x1 - x0) / dt - (x * y * wx - (1.0 + x * x) * wy + y * wz);
-    const double by = (y1 - y0) / dt - ((1.0 + y * y) * wx - x * y * wy - x * wz);
-    const double ax = -Tx + x * Tz, ay = -Ty + y * Tz;
-    const double aa = ax * ax + ay * ay;
-    const double S = R + P * aa;
-    // the measurement sees the midpoint's inverse depth
-    rho += P * (ax * (bx - ax * rho_mid) + ay * (by - ay * rho_mid)) / S;
-    rho_var_(i) = P * R / S;
-    const double lo = 1.0 / (100.0 * result_.depth_desired(i)), hi = 1.0 / options_.min_depth;
-    rho_(i) = std::isfinite(rho) ? std::clamp(rho, lo, hi) : 1.0 / result_.depth_desired(i);
+    const Eigen::Vector3d s0 = est_.col(i);
+    const double x = s0(0), y = s0(1), rho = s0(2);
+    // predict: the point (x, y, 1) / rho in the old frame, seen from the new one
+    const Eigen::Vector3d P = Eigen::Vector3d(x, y, 1.0) / rho;
+    const Eigen::Vector3d Q = Rt * (P - t);
+    const double iz = 1.0 / Q(2);
+    Eigen::Vector3d s(Q(0) * iz, Q(1) * iz, iz);
+    // its Jacobian d s / d s0 = d s / d Q * R^T * d P / d s0
+    Eigen::Matrix3d dP;
+    dP << 1.0 / rho, 0.0, -x / (rho * rho),  //
+        0.0, 1.0 / rho, -y / (rho * rho),     //
+        0.0, 0.0, -1.0 / (rho * rho);
+    Eigen::Matrix3d dS;
+    dS << iz, 0.0, -Q(0) * iz * iz,  //
+        0.0, iz, -Q(1) * iz * iz,     //
+        0.0, 0.0, -iz * iz;
+    const Eigen::Matrix3d F = dS * Rt * dP;
+    Eigen::Matrix3d Pcov = F * est_cov_[i] * F.transpose();
+    Pcov(0, 0) += 1e-12;
+    Pcov(1, 1) += 1e-12;
+    Pcov(2, 2) += 1e-8 * rho * rho;  // 0.01 % relative process noise per frame
+    // update with the measured point (H = [I2 0])
+    const Eigen::Matrix2d S = Pcov.topLeftCorner<2, 2>() + r * Eigen::Matrix2d::Identity();
+    const Eigen::Matrix<double, 3, 2> K = Pcov.leftCols<2>() * S.inverse();
+    s += K * (uv_.col(i) - s.head<2>());
+    Pcov -= K * Pcov.topRows<2>();
+    Pcov = 0.5 * (Pcov + Pcov.transpose()).eval();  // keep it symmetric
+    if (!s.allFinite() || !Pcov.allFinite()) {  // e.g. the point crossed the camera plane: restart from the prior
+      s << uv_.col(i), 1.0 / result_.depth_desired(i);
+      Pcov = Eigen::Vector3d(r, r, s(2) * s(2)).asDiagonal();
+    }
+    s(2) = std::clamp(s(2), 1.0 / (100.0 * result_.depth_desired(i)), 1.0 / options_.min_depth);
+    est_.col(i) = s;
+    est_cov_[i] = Pcov;
   }
 }
 

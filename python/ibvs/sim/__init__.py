@@ -182,8 +182,9 @@ def run(
     latency: frames between capture and control.
     depth: "exact" (true depths), "pose" (from a planar pose estimate of the measured
         points; needs a planar target), "desired" (the constant desired depths) or
-        "estimated" (online, per point, from successive frames and the known camera
-        motion: a Kalman filter on the inverse depth, initialised at depth_scale * z*).
+        "estimated" (online, per point, from successive frames and the camera's motion
+        between them as the robot reports it: a Kalman filter on the point and its
+        inverse depth (x, y, 1/z), initialised at depth_scale * z*).
     depth_scale: > 0, multiplies the depth given to the controller (a depth calibration
         error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).

@@ -48,18 +48,24 @@
 // the image contracts towards the principal point; far from the border U = 0
 // and the control law is untouched.
 //
-// Depth estimate (DepthMode::estimated): per point, the inverse depth rho = 1/z
-// is tracked by a scalar Kalman filter. The Cartesian interaction matrix splits
-// into a translational part proportional to rho and a depth-free rotational part:
-//   xdot = rho * a(x, T) + L_w(x) w,   a = (-Tx + x Tz, -Ty + y Tz).
-// Between two frames the controller saw (the camera twist applied in between is
-// known: the command in free flight, J(q) qdot on the gantry), the measurement
-// b = (x_k - x_{k-1}) / dt - L_w(x_mid) w  =  rho a(x_mid) + noise is least
-// squares in rho; the prediction uses the point's depth dynamics
-// rho_dot = rho^2 Tz + rho (wx y - wy x). Initialised with depth_scale / z*;
-// measurement variance from the pixel noise (plus a floor for the
-// discretisation), a small relative process noise (0.01 % per frame); rho clamped to
-// [1 / (100 z*), 1 / min_depth].
+// Depth estimate (DepthMode::estimated): per point, an extended Kalman filter
+// on the state s = (x, y, rho): the point's normalised image coordinates and
+// its inverse depth rho = 1/z. Prediction moves the point (x, y, 1) / rho by
+// the camera's motion between the two frames, as the robot's odometry knows it
+// (free flight: the exponential of the commanded twist; gantry: the forward
+// kinematics at the two joint vectors), and re-projects it: exact, where
+// integrating the interaction matrix (eq. 3 in rho, with
+// rhodot = rho^2 Tz + rho (wx y - wy x)) over the period is not. The
+// measurement is the point (x, y) itself, with the pixel noise's variance plus
+// a floor of about 0.01 px. Filtering the position, not differencing raw
+// frames, is what keeps the estimate unbiased under noise: the twist was
+// computed from the previous noisy frame, so the difference of two raw frames
+// (an "image velocity" measurement) carries noise correlated with the motion
+// it is divided by, which drove rho to its clamp at 0.5 px.
+// Initialised with rho = 1 / (depth_scale z*) at 100 % uncertainty and the
+// first frame's points; process noise 0.01 % of rho and 1e-6 in x, y per frame;
+// rho clamped to [1 / (100 z*), 1 / min_depth]; a filter that turns non-finite
+// restarts from that prior.
 //
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
@@ -77,6 +83,7 @@
 #include <optional>
 #include <random>
 #include <variant>
+#include <vector>
 
 namespace ibvs::sim {
 
@@ -203,6 +210,7 @@ class Episode {
   void loop(Pose T_wc, const Joints* q_start) noexcept;
   double boundary_tz(int seen) const noexcept;
   void estimate_depth(int k) noexcept;
+  double depth_measurement_variance() const noexcept;
 
   AnyServo servo_;
   ServoOutput out_;
@@ -220,11 +228,11 @@ class Episode {
   Points uv_;
   Eigen::VectorXd z_;
   Eigen::Matrix4Xd desired_distance_;  // 4 x N: desired points' distances to the sensor's sides
-  // depth estimate: inverse depth and its variance per point, the previous
-  // controller points, and a ring of the camera twists applied after each frame
-  Eigen::VectorXd rho_, rho_var_;
-  Points uv_prev_;
-  RowMatrix ring_twist_;  // (L+1) x 6
+  // depth estimate: per point the filter's state (x, y, rho) and its covariance,
+  // and a ring of the camera's motion after each frame (new pose in the old frame)
+  Eigen::Matrix3Xd est_;
+  std::vector<Eigen::Matrix3d> est_cov_;
+  std::vector<Pose> ring_motion_;  // L + 1
   EpisodeResult result_;
 };
 
