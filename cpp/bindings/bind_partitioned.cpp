@@ -77,6 +77,12 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
             s.servo.set_options(o);
           })
       .def_property_readonly("damping", [](const PyPartitioned& s) { return s.servo.options().damping; })
+      .def_property_readonly(
+          "max_linear_speed", [](const PyPartitioned& s) { return s.servo.options().max_linear_speed; },
+          "Limit on |(Tx, Ty, Tz)| (m/s); inf = none.")
+      .def_property_readonly(
+          "max_angular_speed", [](const PyPartitioned& s) { return s.servo.options().max_angular_speed; },
+          "Limit on |(wx, wy, wz)| (rad/s); inf = none.")
       .def_property_readonly("segment", [](const PyPartitioned& s) {
         return py::make_tuple(s.servo.options().segment_first, s.servo.options().segment_second);
       })

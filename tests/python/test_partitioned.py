@@ -106,3 +106,14 @@ def test_properties():
     assert s.n_points == 4 and s.segment == (1, 3) and s.layout == ibvs.Layout.cartesian(4)
     s.gain = 0.7
     assert s.gain == 0.7 and "PartitionedServo(4" in repr(s)
+
+
+def test_speed_limits_are_kept_and_readable():
+    servo = ibvs.PartitionedServo(4, gain=5.0, max_linear_speed=0.05, max_angular_speed=0.2)
+    assert (servo.max_linear_speed, servo.max_angular_speed) == (0.05, 0.2)
+    assert ibvs.PartitionedServo(4, gain=1.0).max_linear_speed == np.inf
+    uvd, zd = look(np.eye(4))
+    uv, z = look(ibvs.se3_exp([0.1, -0.08, -0.3, 0.1, -0.08, 1.2]))
+    res = servo.update(uv, z, uvd, zd)
+    assert res.saturated
+    assert np.linalg.norm(res.velocity[:3]) <= 0.05 + 1e-12 and np.linalg.norm(res.velocity[3:]) <= 0.2 + 1e-12
