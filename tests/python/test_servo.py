@@ -75,7 +75,7 @@ def test_result_shapes_and_types():
     assert "ServoResult" in repr(res) and "stacked(4)" in repr(ibvs.Servo(LAYOUTS["stacked"], gain=1.0))
 
 
-def test_diagnostics_off_reports_nan_not_a_number_that_looks_valid():
+def test_diagnostics_off_reports_nan():
     """With diagnostics=False the damped route skips the singular values: sigma_min, sigma_max and
     condition are NaN (not computed), while the twist equals the diagnostics-on twist exactly."""
     start = np.eye(4)
