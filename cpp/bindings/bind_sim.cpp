@@ -192,7 +192,20 @@ normalize(): measurement -> normalised with kdu.)")
             return map_points(uv, "uv", [&](double u, double v) { return c.normalize(u, v); });
           },
           py::arg("uv"), "Measurement points (N, 2) -> normalised (N, 2), undistorted with kdu.")
-      .def("__repr__", &Camera::describe);
+      .def("__repr__", &Camera::describe)
+      // Pickling (process pools, Dask): every field, re-validated on load.
+      .def(py::pickle(
+          [](const Camera& c) {
+            return py::make_tuple(c.px, c.py, c.u0, c.v0, c.kud, c.kdu, c.u_min, c.u_max, c.v_min, c.v_max, c.fps);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 11) throw py::value_error("Camera: bad pickle state");
+            Camera c;
+            double* f[] = {&c.px, &c.py, &c.u0, &c.v0, &c.kud, &c.kdu, &c.u_min, &c.u_max, &c.v_min, &c.v_max, &c.fps};
+            for (std::size_t i = 0; i < 11; ++i) *f[i] = t[i].cast<double>();
+            c.validate();
+            return c;
+          }));
 
   py::class_<Target>(s, "Target", "Points (N, 3) in the target frame and the target's world pose (4x4).")
       .def(py::init([](py::handle pts, py::handle pose) {
@@ -221,7 +234,19 @@ normalize(): measurement -> normalised with kdu.)")
            "(N, 3), world frame.")
       .def_property_readonly("planar", [](const Target& t) { return t.planar(); })
       .def("__len__", &Target::size)
-      .def("__repr__", &Target::describe);
+      .def("__repr__", &Target::describe)
+      .def(py::pickle(
+          [](const Target& t) {
+            return py::make_tuple(Eigen::MatrixX3d(t.points.transpose()), Eigen::Matrix4d(t.pose));
+          },
+          [](const py::tuple& s) {
+            if (s.size() != 2) throw py::value_error("Target: bad pickle state");
+            Target t;
+            t.points = s[0].cast<Eigen::MatrixX3d>().transpose();
+            t.pose = s[1].cast<Eigen::Matrix4d>();
+            t.validate();
+            return t;
+          }));
 
   py::class_<Gantry>(s, "Gantry", "Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange.")
       .def_static("afma6", &Gantry::afma6, "ViSP vpAfma6 defaults with the distorted-camera mount.")
@@ -262,7 +287,26 @@ normalize(): measurement -> normalised with kdu.)")
       .def(
           "outside_limits", [](const Gantry& g, py::handle q) { return g.outside_limits(joints_arg(q, "q")); },
           py::arg("q"), "Index of the first joint outside its range, or -1.")
-      .def("__repr__", &Gantry::describe);
+      .def("__repr__", &Gantry::describe)
+      .def(py::pickle(
+          [](const Gantry& g) {
+            return py::make_tuple(g.q_min, g.q_max, g.qdot_max, Eigen::Matrix4d(g.mount), g.coupling, g.offset,
+                                  g.singular_region, g.max_damping);
+          },
+          [](const py::tuple& s) {
+            if (s.size() != 8) throw py::value_error("Gantry: bad pickle state");
+            Gantry g;
+            g.q_min = s[0].cast<Joints>();
+            g.q_max = s[1].cast<Joints>();
+            g.qdot_max = s[2].cast<Joints>();
+            g.mount = s[3].cast<Eigen::Matrix4d>();
+            g.coupling = s[4].cast<double>();
+            g.offset = s[5].cast<double>();
+            g.singular_region = s[6].cast<double>();
+            g.max_damping = s[7].cast<double>();
+            g.validate();
+            return g;
+          }));
 
   s.def(
       "_run",

@@ -8,6 +8,7 @@ Conventions (everywhere the same):
 
 from __future__ import annotations
 
+import copyreg
 from pathlib import Path
 
 from ._core import (
@@ -54,6 +55,13 @@ __all__ = [
     "singular_values",
     "wrap_angle",
 ]
+
+
+def _reduce_layout(layout: Layout):
+    return Layout, (layout.blocks, layout.n_points)
+
+
+copyreg.pickle(Layout, _reduce_layout)  # a Layout pickles as its blocks (sim.Result holds one)
 
 
 def cmake_dir() -> str:

@@ -20,16 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-import ibvs
-from ibvs import sim
+from ibvs import schemes, sim
 
-#: Scheme name -> layout for the paper's four points.
-SCHEMES = {
-    "cartesian": lambda: ibvs.Layout.cartesian(4),
-    "polar": lambda: ibvs.Layout.polar(4),
-    "hybrid": lambda: ibvs.Layout([(0, "cartesian"), (1, "cartesian"), (2, "polar"), (3, "polar")]),
-    "stacked": lambda: ibvs.Layout.stacked(4),
-}
+#: The paper's four schemes (factories in ibvs.schemes) and their titles in the figures.
+SCHEMES = schemes.PAPER
 SCHEME_TITLES = {
     "cartesian": "IBVS (Cartesian, 8x6)",
     "polar": "IBVS-P (polar, 8x6)",
@@ -42,8 +36,12 @@ CASES = {
         "z-rotation": sim.cases.z_rotation,
         "general": sim.cases.general_motion,
     },
-    "gantry": {"general": sim.cases.gantry_general_motion},
+    "gantry": {"general": sim.cases.gantry_general_motion, "joint-limit": sim.cases.gantry_joint_limit},
 }
+#: The case each world runs unless told otherwise.
+DEFAULT_CASE = {"free": "z-rotation", "gantry": "general"}
+#: The cases `ibvs reproduce` runs (the paper's).
+PAPER_CASES = {"free": ("x-translation", "z-rotation", "general"), "gantry": ("general",)}
 #: Paper figure each (world, case, scheme) reproduces.
 FIGURES = {
     ("free", "x-translation", "polar"): "Fig. 1",
@@ -108,13 +106,15 @@ def make_case(world: str, case: str):
 
 
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
-            latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None):
-    """Simulate one (world, case, scheme); returns (case object, sim.Result)."""
-    c = make_case(world, case)
-    servo = ibvs.Servo(SCHEMES[scheme](), gain=GAIN[world] if gain is None else gain, damping=0.0)
+            latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
+            tolerance: float = TOLERANCE, case_object=None):
+    """Simulate one (world, case, scheme) (scheme: any name in ibvs.schemes.SCHEMES); returns
+    (case object, sim.Result). case_object replaces the named case (e.g. another angle)."""
+    c = case_object if case_object is not None else make_case(world, case)
+    servo = schemes.make(scheme, GAIN[world] if gain is None else gain, len(c.target))
     result = sim.run(servo, c.camera, c.target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
-                     depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=TOLERANCE)
+                     depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance)
     return c, result
 
 
@@ -134,19 +134,6 @@ def summarise(world: str, case: str, scheme: str, result) -> Row:
         f"q{s.joint + 1}" if s.outcome == "joint_limit" else "no" if world == "gantry" else "",
         FIGURES.get((world, case, scheme), ""),
     )
-
-
-def image_bounds(camera) -> tuple[tuple[float, float], tuple[float, float]]:
-    """Image bounds in normalised coordinates ((u_min, u_max), (v_min, v_max)); a pixel sensor's
-    corners are undistorted with the camera model."""
-    u0, u1, v0, v1 = (float(x) for x in camera.bounds)
-    (a, b), (c, d) = np.asarray(camera.normalize([[u0, v0], [u1, v1]]))
-    return (a, c), (b, d)
-
-
-def target_points(target) -> np.ndarray:
-    """(N, 3) target points in the world frame."""
-    return np.asarray(target.world_points())
 
 
 def claims(rows: list[Row]) -> list[tuple[str, bool]]:
@@ -195,12 +182,13 @@ def reproduce(out: Path, quick: bool = False, stream=sys.stdout) -> tuple[list[R
     from . import plots
 
     out.mkdir(parents=True, exist_ok=True)
-    plan = [(w, c, s) for w in CASES for c in CASES[w] for s in SCHEMES]
+    plan = [(w, c, s) for w in PAPER_CASES for c in PAPER_CASES[w] for s in SCHEMES]
     # A whole episode simulates in milliseconds; the time goes into drawing, so --quick draws smaller.
     dpi = 50 if quick else 100
     rows = []
     t0 = time.perf_counter()
-    fig4 = plots.image_limits_figure(str(out / "fig4_image_limits.png"), dpi=dpi)
+    plots.image_limits().savefig(out / "fig4_image_limits.png", dpi=dpi)
+    fig4 = {name: inside for name, (_, inside) in plots.image_limits_paths().items()}
     print(f"[ 0/{len(plan)}] Fig. 4 image-plane limits -> fig4_image_limits.png", file=stream, flush=True)
     for k, (world, case, scheme) in enumerate(plan, 1):
         c, result = run_one(world, case, scheme)
@@ -209,9 +197,7 @@ def reproduce(out: Path, quick: bool = False, stream=sys.stdout) -> tuple[list[R
         name = f"{world}_{case}_{scheme}.png"
         fig = FIGURES.get((world, case, scheme))
         title = f"{fig + ': ' if fig else ''}{c.description}, {SCHEME_TITLES[scheme]}"
-        limits = (np.asarray(c.robot.q_min), np.asarray(c.robot.q_max)) if c.robot is not None else None
-        plots.run_figure(result, title, image_bounds(c.camera), target_points(c.target),
-                         str(out / name), joint_limits=limits, dpi=dpi)
+        plots.episode(result, title=title).savefig(out / name, dpi=dpi)
         print(f"[{k:2d}/{len(plan)}] {world:6s} {case:13s} {scheme:9s} {row.status:13s} {row.event:9s}"
               f" -> {name}  ({time.perf_counter() - t0:.1f} s)", file=stream, flush=True)
     checks = claims(rows)

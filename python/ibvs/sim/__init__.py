@@ -8,6 +8,8 @@ returns the history as numpy arrays.
     case = sim.cases.z_rotation()
     result = sim.run(servo, case.camera, case.target, case.start, case.goal, duration=case.duration)
     result.status.outcome, result.metrics.camera_retreat, result.history.twist
+    fig = result.plot()                  # a matplotlib Figure (ibvs.plots.episode)
+    result.animate("run.gif", speed=2)   # camera view and 3D scene (ibvs.plots.animate)
 
 Frames and conventions are those of ibvs (camera x right, y down, z forward;
 twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera.
@@ -20,10 +22,10 @@ from typing import Optional, Union
 
 import numpy as np
 
-from .._core import PartitionedServo, Servo
+from .._core import Layout, PartitionedServo, Servo
 from .._core import sim as _sim
 from . import cases
-from .poses import pose, rotation
+from .poses import pose, pose_deg, rotation
 
 Camera = _sim.Camera
 Target = _sim.Target
@@ -39,6 +41,7 @@ __all__ = [
     "Target",
     "cases",
     "pose",
+    "pose_deg",
     "rotation",
     "run",
 ]
@@ -117,7 +120,11 @@ class History:
 
 @dataclass(frozen=True)
 class Result:
-    """Outcome of run(): status, metrics, history, and the desired features/pose used."""
+    """Outcome of run(): status, metrics, history, and the desired features/pose used.
+
+    What the episode ran on comes with it, so that result.plot() and result.animate() need
+    nothing else: camera, target, robot (None in free flight), layout (of the servo's error
+    rows; a PartitionedServo's Cartesian layout) and servo (a short description)."""
 
     status: RunStatus
     metrics: Metrics
@@ -125,10 +132,27 @@ class Result:
     uv_desired: np.ndarray
     depth_desired: np.ndarray
     goal: np.ndarray
+    camera: Optional[Camera] = None
+    target: Optional[Target] = None
+    robot: Optional[Gantry] = None
+    layout: Optional[Layout] = None
+    servo: str = ""
 
     @property
     def converged(self) -> bool:
         return self.status.converged
+
+    def plot(self, **kwargs):
+        """A matplotlib Figure of the episode: ibvs.plots.episode(self, **kwargs)."""
+        from .. import plots
+
+        return plots.episode(self, **kwargs)
+
+    def animate(self, path, **kwargs) -> int:
+        """Write a GIF or MP4 of the episode: ibvs.plots.animate(self, path, **kwargs)."""
+        from .. import plots
+
+        return plots.animate(self, path, **kwargs)
 
     def __repr__(self) -> str:
         s, m = self.status, self.metrics
@@ -138,6 +162,29 @@ class Result:
             f"path={m.path_length:.4g} m, final error {m.final_translation_error:.3g} m / "
             f"{np.degrees(m.final_rotation_error):.3g} deg)"
         )
+
+
+_REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}
+
+
+def _describe_servo(servo) -> str:
+    """A short name of a servo's control law, e.g. "polar 8x6", "stacked 16x6", "partitioned (4 points)"."""
+    if isinstance(servo, PartitionedServo):
+        return f"partitioned ({servo.n_points} points)"
+    layout = servo.layout
+    kinds = {str(rep) for _, rep in layout.blocks}
+    points = [p for p, _ in layout.blocks]
+    if len(points) > len(set(points)):
+        name = "stacked"
+    elif len(kinds) > 1:
+        name = "hybrid"
+    else:
+        name = _REPRESENTATION_NAMES.get(next(iter(kinds), ""), "")
+    out = f"{name} {layout.rows}x6".strip()
+    pmr = getattr(servo, "polar_min_radius", 1e-3)
+    if "polar" in kinds and pmr != 1e-3:  # e.g. Servo.automatic_hybrid: Cartesian near the centre
+        out += f", Cartesian within r < {pmr:g}"
+    return out
 
 
 def _real(x, name: str) -> float:
@@ -251,4 +298,5 @@ def run(
         d.get("qdot"),
         d.get("manipulability"),
     )
-    return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"])
+    return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
+                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo))

@@ -1,17 +1,23 @@
-"""Small pose helpers for building start and goal poses (4x4, world <- camera)."""
+"""Small pose helpers for building start and goal poses (4x4, world <- camera). Angles are in
+radians, as everywhere in ibvs; pose_deg (or degrees=True) takes degrees."""
 
 from __future__ import annotations
+
+import math
+import warnings
 
 import numpy as np
 
 
-def rotation(rx: float = 0.0, ry: float = 0.0, rz: float = 0.0) -> np.ndarray:
-    """3x3 rotation Rx(rx) @ Ry(ry) @ Rz(rz) (ViSP's rxyz convention), radians.
+def _check_radians(r, stacklevel: int) -> None:
+    """Warn when a rotation entry above 2 pi in magnitude looks like degrees."""
+    big = [float(a) for a in r if abs(float(a)) > 2 * math.pi]
+    if big:
+        warnings.warn(f"rotation entry {big[0]:g} is larger than 2 pi: ibvs takes radians; for degrees use "
+                      f"ibvs.sim.pose_deg or degrees=True", UserWarning, stacklevel=stacklevel + 1)
 
-    Angles that are exact multiples of pi/2 give exact 0/+-1 entries, so a half turn
-    about z mirrors the image points exactly (the paper's z-rotation of pi).
-    """
 
+def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
     def c_s(a: float) -> tuple[float, float]:
         q = a / (np.pi / 2)
         if abs(q - round(q)) < 1e-12:  # exact quarter turns
@@ -27,9 +33,50 @@ def rotation(rx: float = 0.0, ry: float = 0.0, rz: float = 0.0) -> np.ndarray:
     return Rx @ Ry @ Rz
 
 
-def pose(t=(0.0, 0.0, 0.0), r=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """4x4 rigid transform with translation t (metres) and rotation rotation(*r) (radians)."""
+def _angles(r, degrees: bool) -> tuple[float, float, float]:
+    try:
+        a = np.asarray(r, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"r must be 3 finite angles (rx, ry, rz), got {r!r}") from None
+    if a.shape != (3,) or not np.isfinite(a).all():
+        raise ValueError(f"r must be 3 finite angles (rx, ry, rz), got {r!r}")
+    if degrees:
+        a = np.radians(a)
+    return float(a[0]), float(a[1]), float(a[2])
+
+
+def rotation(rx: float = 0.0, ry: float = 0.0, rz: float = 0.0, *, degrees: bool = False) -> np.ndarray:
+    """3x3 rotation Rx(rx) @ Ry(ry) @ Rz(rz) (ViSP's rxyz convention), in radians (degrees
+    with degrees=True). An angle above 2 pi in magnitude warns that it looks like degrees.
+
+    Angles that are exact multiples of pi/2 give exact 0/+-1 entries, so a half turn
+    about z mirrors the image points exactly (the paper's z-rotation of pi).
+    """
+    a = _angles((rx, ry, rz), degrees)
+    if not degrees:
+        _check_radians(a, stacklevel=2)
+    return _rotation(*a)
+
+
+def pose(t=(0.0, 0.0, 0.0), r=(0.0, 0.0, 0.0), *, degrees: bool = False) -> np.ndarray:
+    """4x4 rigid transform with translation t (metres) and rotation rotation(*r): r in radians
+    (rx, ry, rz), or in degrees with degrees=True. An entry of r above 2 pi in magnitude warns
+    that it looks like degrees (pose(r=(0, 0, 170)) is 170 radians)."""
+    a = _angles(r, degrees)
+    if not degrees:
+        _check_radians(a, stacklevel=2)
     T = np.eye(4)
-    T[:3, :3] = rotation(*r)
-    T[:3, 3] = np.asarray(t, dtype=float)
+    T[:3, :3] = _rotation(*a)
+    try:
+        tt = np.asarray(t, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"t must be 3 finite numbers (metres), got {t!r}") from None
+    if tt.shape != (3,) or not np.isfinite(tt).all():
+        raise ValueError(f"t must be 3 finite numbers (metres), got {t!r}")
+    T[:3, 3] = tt
     return T
+
+
+def pose_deg(t=(0.0, 0.0, 0.0), r_deg=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """pose() with the rotation (rx, ry, rz) in degrees: pose_deg(r_deg=(0, 0, 170))."""
+    return pose(t, r_deg, degrees=True)
