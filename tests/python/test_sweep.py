@@ -63,11 +63,11 @@ def test_aggregate_and_table():
     assert [(t["scheme"], t["bin"], t["n"]) for t in table] == [
         ("cartesian", "[0, 90)", 2), ("cartesian", "[90, 180]", 1), ("polar", "[0, 90)", 2), ("polar", "[90, 180]", 1)]
     by = {(t["scheme"], t["lo"]): t for t in table}
-    assert by[("polar", 90.0)]["success"] == 1.0
+    assert by[("polar", 90.0)]["converged"] == 1.0
     # large rotation: Cartesian IBVS retreats far more than IBVS-P
     assert by[("cartesian", 90.0)]["retreat"] > 0.5 > by[("polar", 90.0)]["retreat"]
     for t in table:
-        assert 0 <= t["image_exit"] <= 1 and t["joint_limit"] == 0
+        assert 0 <= t["left_image"] <= 1 and t["joint_limit"] == 0
     text = sw.format_table(table)
     assert text.count("\n") == 5 and "| polar | [90, 180] | 1 | 100.0 %" in text
     with pytest.raises(ValueError, match="by"):
