@@ -244,11 +244,15 @@ def format_table(res: dict[str, Any]) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m ibvs.bench", description=__doc__.split("\n\n")[0])
-    p.add_argument("--iterations", type=int, default=20000, help="timed calls per case (default 20000)")
-    p.add_argument("--n", type=int, default=4, help="number of image points (default 4)")
-    p.add_argument("--damping", type=float, default=0.01, help="lambda > 0 (default 0.01)")
-    p.add_argument("--gain", type=float, default=0.5, help="gain > 0 (default 0.5)")
+    from ._args import Parser, number
+
+    p = Parser(prog="python -m ibvs.bench", description=__doc__.split("\n\n")[0])
+    p.add_argument("--iterations", type=number(1, 10**8, integer=True), default=20000,
+                   help="timed calls per case (1 to 1e8; default 20000)")
+    p.add_argument("--n", type=number(1, 10000, integer=True), default=4,
+                   help="number of image points (1 to 10000; default 4)")
+    p.add_argument("--damping", type=number(0, 1e6, open_lo=True), default=0.01, help="lambda > 0 (default 0.01)")
+    p.add_argument("--gain", type=number(0, 1e6, open_lo=True), default=0.5, help="gain > 0 (default 0.5)")
     p.add_argument("--json", action="store_true", help="print one JSON line instead of the table")
     return p
 
@@ -258,8 +262,6 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
         argv = argv[1:]
     args = build_parser().parse_args(argv)
-    if args.iterations < 1 or args.n < 1 or not args.damping > 0 or not args.gain > 0:
-        build_parser().error("need iterations >= 1, n >= 1, damping > 0, gain > 0")
     res = run(args.iterations, args.n, args.damping, args.gain)
     print(json.dumps(res) if args.json else format_table(res))
     return 0

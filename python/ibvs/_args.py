@@ -1,0 +1,120 @@
+"""Command-line argument checks: every bad argument is refused by the parser, before any work,
+with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from pathlib import Path
+from typing import NoReturn
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (no usage block): prog: error: message."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def number(lo: float, hi: float, *, open_lo: bool = False, integer: bool = False):
+    """argparse type: a finite number (an integer with integer=True) in [lo, hi] ((lo, hi] with open_lo)."""
+
+    def parse(text: str):
+        try:
+            x = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not {'an integer' if integer else 'a number'}: {text!r}") from None
+        if not math.isfinite(x) or x > hi or x < lo or (open_lo and x == lo):
+            raise argparse.ArgumentTypeError(f"must be in {'(' if open_lo else '['}{lo:g}, {hi:g}], got {text}")
+        return x
+
+    parse.__name__ = "integer" if integer else "number"
+    return parse
+
+
+def _writable_dir(d: Path) -> bool:
+    return d.is_dir() and os.access(d, os.W_OK | os.X_OK)
+
+
+def out_file(*suffixes: str):
+    """argparse type: a file this process can write (an existing writable file, or a new one in an
+    existing writable directory), not a directory, ending in one of `suffixes` if given."""
+
+    def parse(text: str) -> Path:
+        p = Path(text)
+        if not text or p.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r} is a directory, not a file")
+        if suffixes and p.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"{text!r} must end in {' or '.join(suffixes)}")
+        parent = p.parent if str(p.parent) else Path(".")
+        if not parent.exists():
+            raise argparse.ArgumentTypeError(f"directory {str(parent)!r} does not exist")
+        if not _writable_dir(parent) or (p.exists() and not os.access(p, os.W_OK)):
+            raise argparse.ArgumentTypeError(f"cannot write {text!r}")
+        return p
+
+    parse.__name__ = "file"
+    return parse
+
+
+def out_dir(text: str) -> Path:
+    """argparse type: a directory to write into (created if missing, below a writable one)."""
+    p = Path(text)
+    if p.exists() and not p.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a file, not a directory")
+    existing = p
+    while not existing.exists():
+        existing = existing.parent
+    if not _writable_dir(existing):
+        raise argparse.ArgumentTypeError(f"cannot write into {str(existing)!r}")
+    return p
+
+
+def in_file(text: str) -> Path:
+    """argparse type: a readable file."""
+    p = Path(text)
+    if not p.is_file() or not os.access(p, os.R_OK):
+        raise argparse.ArgumentTypeError(f"no readable file {text!r}")
+    return p
+
+
+def figure_file(text: str) -> Path:
+    """argparse type: out_file() with an extension matplotlib can save (png, pdf, svg, ...);
+    matplotlib must be installed."""
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        raise argparse.ArgumentTypeError('figures need matplotlib: pip install ".[plot]" from the ibvs '
+                                         'repository root') from None
+    kinds = sorted(FigureCanvasBase.get_supported_filetypes())
+    return out_file(*(f".{k}" for k in kinds))(text)
+
+
+def animation_file(text: str) -> Path:
+    """argparse type: out_file() ending in .gif or .mp4 (MP4 needs imageio-ffmpeg)."""
+    p = out_file(".gif", ".mp4")(text)
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase  # noqa: F401
+    except ImportError:
+        raise argparse.ArgumentTypeError('animations need matplotlib: pip install ".[plot]" from the ibvs '
+                                         'repository root') from None
+    from .animation import check_path
+
+    try:
+        check_path(p)
+    except (ImportError, ValueError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return p
+
+
+def say(prog: str, message) -> None:
+    """Print `prog: error: message` on stderr, as one line."""
+    print(f"{prog}: error: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def fail(prog: str, message) -> NoReturn:
+    """A bad argument found after parsing: one line, then exit status 2 (as argparse's own errors)."""
+    say(prog, message)
+    raise SystemExit(2)
