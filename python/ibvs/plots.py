@@ -529,7 +529,7 @@ def sweep_summary(table: Sequence[dict], by: str = "rz_deg", *, fig=None):
         raise ValueError("table: empty (no rows to plot)")
     outcomes = list(table[0]["outcomes"])
     metrics = [("retreat", "median camera retreat (m)"), ("path", "median camera path (m)"),
-               ("peak_linear_speed", "median peak |T| (m/s)"), ("peak_angular_speed", "median peak |ω| (rad/s)")]
+               ("peak_linear_speed", "median peak ‖T‖ (m/s)"), ("peak_angular_speed", "median peak ‖ω‖ (rad/s)")]
     panels = [(o, f"{o} (%)") for o in outcomes] + metrics
     cols = 4
     rows = math.ceil(len(panels) / cols)

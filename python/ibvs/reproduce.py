@@ -87,7 +87,7 @@ class Row:
     )
     HEADERS = (
         "world", "case", "scheme", "status", "event", "frames to converge", "time (s)", "retreat (m)", "path (m)",
-        "peak |v| (m/s)", "peak |ω| (rad/s)", "final Δp (mm)", "final Δθ (°)", "joint limit", "paper",
+        "peak ‖v‖ (m/s)", "peak ‖ω‖ (rad/s)", "final Δp (mm)", "final Δθ (°)", "joint limit", "paper",
     )
 
     def cells(self) -> list[str]:

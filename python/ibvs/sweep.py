@@ -152,6 +152,10 @@ class SweepSpec:
                         or not (math.isfinite(v) and lo <= v <= hi) or (name == "latency" and v != int(v)):
                     raise ValueError(f"grid: {name} values must be {'integers' if name == 'latency' else 'numbers'}"
                                      f" in [{lo:g}, {hi:g}], got {v!r}")
+        frames = self.setup.duration * self.setup.camera.fps
+        if self.grid and "latency" in self.grid and max(self.grid["latency"]) >= frames:
+            raise ValueError(f"grid: latency {max(self.grid['latency']):g} frames is not shorter than the episode "
+                             f"({frames:g} frames)")
         if self.size > MAX_EPISODES:
             raise ValueError(f"grid: {self.size} combinations, more than {MAX_EPISODES}")
         return self
@@ -648,7 +652,7 @@ def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[
 
 
 _METRIC_COLUMNS = (("time", "time (s)"), ("retreat", "retreat (m)"), ("path", "path (m)"),
-                   ("peak_linear_speed", "peak |T| (m/s)"), ("peak_angular_speed", "peak |ω| (rad/s)"),
+                   ("peak_linear_speed", "peak ‖T‖ (m/s)"), ("peak_angular_speed", "peak ‖ω‖ (rad/s)"),
                    ("invalid", "invalid starts"))
 
 

@@ -100,7 +100,7 @@ def test_example_file_and_its_table(tmp_path):
     for t in table:
         if t["n"]:
             assert math.isclose(sum(t[o] for o in t["outcomes"]), 1.0)
-    assert "peak |T| (m/s)" in text and "retreat (m)" in text
+    assert "peak ‖T‖ (m/s)" in text and "retreat (m)" in text
 
 
 def test_an_outcome_added_later_gets_its_column(monkeypatch):
@@ -210,3 +210,12 @@ def test_builtin_worlds_and_overrides():
     with pytest.raises(ValueError, match="world and scenario"):
         sw.resolve("free", world="free")
     assert set(PARAMETERS) >= {"latency", "noise", "depth_scale"}
+
+
+def test_docs_python_example_runs(capsys):
+    import re
+
+    text = (EXAMPLE.parent / "sweeps.md").read_text()
+    (code,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    exec(compile(code, "docs/sweeps.md", "exec"), {"__name__": "docs_sweeps"})
+    assert "| polar |" in capsys.readouterr().out
