@@ -184,3 +184,9 @@ def test_signal_stops_a_sweep_within_a_second(tmp_path, sig):
     assert f"{len(saved)} of 6000 episodes saved" in lines[0]
     ids = [r["id"] for r in saved]
     assert len(ids) == len(set(ids)) and out.read_text().endswith("\n")
+    # resuming runs the missing episodes first, and only them
+    more = sw.sweep(out, episodes=3000, duration=10.0, schemes=["polar", "cartesian"], jobs=1, limit=10,
+                    progress=False)
+    again = [r["id"] for r in sw.load(out)]
+    assert len(again) == len(set(again)) == len(ids) + 10 and set(ids) < set(again)
+    assert len(more) == len(ids) + 10
