@@ -123,14 +123,17 @@ def _measured(result, uv: np.ndarray) -> np.ndarray:
 
 def _frustum(pose: np.ndarray, corners: np.ndarray, depth: float) -> np.ndarray:
     """Line vertices (with NaN breaks) of a camera frustum: apex to the four image corners
-    (normalised, (4, 2)) at `depth` in front of the camera, and the rectangle between them."""
+    (normalised, (4, 2), top-left first, clockwise) at `depth` in front of the camera, the
+    rectangle between them, and a small triangle on its top side that shows the camera's roll."""
     c = np.c_[corners * depth, np.full(4, depth)] @ pose[:3, :3].T + pose[:3, 3]
     o = pose[:3, 3]
     nan = np.full(3, np.nan)
     segs = []
     for k in range(4):
         segs += [o, c[k], nan]
-    segs += [c[0], c[1], c[2], c[3], c[0]]
+    segs += [c[0], c[1], c[2], c[3], c[0], nan]
+    top, up = c[1] - c[0], c[0] - c[3]  # along the top side; from the bottom side to the top one
+    segs += [c[0] + 0.35 * top, c[0] + 0.5 * top + 0.25 * up, c[0] + 0.65 * top]
     return np.array(segs)
 
 
