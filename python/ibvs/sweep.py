@@ -529,6 +529,15 @@ def _connect(scheduler):
     if not isinstance(scheduler, str):
         raise TypeError(f"scheduler must be an address string or a dask.distributed Client, got "
                         f"{type(scheduler).__name__}")
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:  # a malformed address is refused here: a Client that fails to parse one hangs on exit
+        kind, where = parse_address(scheduler, strict=False)
+        if kind != "inproc" and parse_host_port(where)[1] <= 0:
+            raise ValueError
+    except (ValueError, TypeError):
+        raise ValueError(f"scheduler: {scheduler!r} is not a scheduler address such as tcp://127.0.0.1:8786") \
+            from None
     import logging
 
     # distributed logs every failed attempt; the one-line error below says it all.

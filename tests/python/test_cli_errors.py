@@ -71,6 +71,8 @@ def _bad(tmp_path) -> list:
         (["sweep", "--out", out, "--scenario", str(EXAMPLE), "--depth", "pose"], "planar"),
         (["sweep", "--out", out, "--figure", str(d / "missing" / "f.png")], "--figure"),
         (["sweep", "--out", out, "--schemes", "spherical"], "--schemes"),
+        (["sweep", "--out", out, "--scheduler", "no-port"], "scheduler"),
+        (["sweep", "--out", out, "--scheduler", ""], "scheduler"),
         (["bench", "--gain", "inf"], "--gain"),
         (["bench", "--iterations", "0"], "--iterations"),
         (["bench", "--n", "1e9"], "--n"),
