@@ -2,7 +2,7 @@
 // real-time rates. A plain main() program: no benchmark framework.
 //
 //   ibvs-bench                        components (N=4, each layout), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz,
-//                                     600-frame simulated gantry episodes
+//                                     600-frame simulated gantry episodes, robot (JointMapping, 6/7/16 joints)
 //   ibvs-bench --paced 1000 --duration 10
 //   ibvs-bench --sections components --layout stacked --n 4 --iterations 1000000
 //   ibvs-bench --json                 one JSON line on stdout (the table goes to stderr)
@@ -154,7 +154,7 @@ std::vector<std::string> split(const std::string& s) {
                "  --spin US          paced: sleep until US microseconds before each deadline, then spin (default 0)\n"
                "  --realtime         paced: try SCHED_FIFO 80 and mlockall (needs CAP_SYS_NICE)\n"
                "  --episodes K       simulated 600-frame gantry episodes per episode case (default 50)\n"
-               "  --sections S[,S..] components, growth, paced, episode (default all four)\n"
+               "  --sections S[,S..] components, growth, paced, episode, robot (default all five)\n"
                "  --json             one JSON line on stdout; the human table goes to stderr\n");
   std::exit(code);
 }
@@ -228,10 +228,10 @@ Options parse(int argc, char** argv) {
   if (o.warmup < 0) o.warmup = std::max(1000L, o.iterations / 10);
   if (o.sections.empty()) {
     if (o.rates_given && !o.layouts_given && !o.ns_given) o.sections = {"paced"};
-    else o.sections = {"components", "growth", "paced", "episode"};
+    else o.sections = {"components", "growth", "paced", "episode", "robot"};
   }
   for (const auto& s : o.sections)
-    if (s != "components" && s != "growth" && s != "paced" && s != "episode") {
+    if (s != "components" && s != "growth" && s != "paced" && s != "episode" && s != "robot") {
       std::fprintf(stderr, "ibvs-bench: unknown section '%s'\n", s.c_str());
       usage(2);
     }
@@ -463,6 +463,33 @@ void bench_floor(const std::string& kind, const Options& o, const Frames& fr) {
 }
 
 void check_floor_agrees(const std::string& kind, const Options& o, const Frames& fr);
+
+/// JointMapping::update (robot_mapping.hpp): camera twist -> joint velocities
+/// for n joints, over 64 random end-effector Jacobians and twists (SVD of the
+/// 6 x n camera Jacobian, speed limits on), undamped and damped.
+void bench_robot(int n, double damping, const Options& o) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<ibvs::JointMappingInput> in(Frames::count, ibvs::JointMappingInput(n));
+  for (auto& x : in) {
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < 6; ++i) x.jacobian(i, j) = g(rng);
+    for (int i = 0; i < 6; ++i) x.twist(i) = 0.1 * g(rng);
+  }
+  ibvs::Pose eMc = ibvs::Pose::Identity();
+  eMc.topRightCorner<3, 1>() << 0.05, -0.03, 0.04;
+  ibvs::JointMappingOptions jo;
+  jo.damping = damping;
+  jo.max_joint_speed = ibvs::JointVector::Constant(n, 2.0);
+  ibvs::JointMapping map(n, eMc, jo);
+  ibvs::JointMappingOutput out(n);
+  Result& r = add("robot", damping > 0 ? "JointMapping::update damped" : "JointMapping::update", "joints", n, 6,
+                  damping > 0 ? "SVD damped" : "SVD", damping, -1);
+  time_case(r, o, [&](long i) {
+    map.update(in[static_cast<std::size_t>(i & (Frames::count - 1))], out);
+    keep(out.qdot(0));
+  });
+}
 
 void bench_components(const std::string& kind, int n, const Options& o) {
   const Frames fr(n);
@@ -747,7 +774,8 @@ std::string json_escape(const std::string& s) {
 
 void print_row(std::FILE* f, const Result& r) {
   char what[48];
-  std::snprintf(what, sizeof what, "%s(%d) %dx6", r.layout.c_str(), r.n, r.rows);
+  if (r.section == "robot") std::snprintf(what, sizeof what, "%d joints, J 6x%d", r.n, r.n);
+  else std::snprintf(what, sizeof what, "%s(%d) %dx6", r.layout.c_str(), r.n, r.rows);
   std::fprintf(f, "  %-36s %-20s %9.3f %9.3f %9.2f %9.3f %12.0f %7.2g\n", r.name.c_str(), what, r.median_us, r.p99_us,
                r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call);
 }
@@ -843,6 +871,16 @@ int main(int argc, char** argv) {
                    e.outcome.c_str());
       std::fflush(table);
     }
+  }
+
+  if (has(o.sections, "robot")) {
+    print_header(table, "Robot mapping: JointMapping::update, camera twist -> joint velocities (n joints)");
+    for (int n : {6, 7, 16})
+      for (double damping : {0.0, o.damping}) {
+        bench_robot(n, damping, o);
+        print_row(table, g_results.back());
+        std::fflush(table);
+      }
   }
 
   if (o.json) {

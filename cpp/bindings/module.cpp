@@ -8,6 +8,7 @@ namespace py = pybind11;
 void bind_core(py::module_& m);  // bind_core.cpp
 void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
+void bind_robot(py::module_& m);        // bind_robot.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
@@ -15,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
   bind_core(m);
   bind_sim(m);
   bind_partitioned(m);
+  bind_robot(m);
 }

@@ -4,6 +4,8 @@ Conventions (everywhere the same):
   camera frame x right, y down, z forward; camera twist v = (Tx, Ty, Tz, wx, wy, wz)
   in the camera frame (m/s, rad/s); image points in normalised coordinates
   (unit focal length) with shape (N, 2); depths in metres; angles in radians.
+  Robots: base frame b, end effector e, camera c; eMc = end-effector <- camera (4x4);
+  joint_velocities / JointMapping turn the camera twist into joint velocities.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from pathlib import Path
 
 from ._core import (
     AdaptiveGain,
+    JointMapping,
+    JointMappingResult,
     Layout,
     PartitionedServo,
     Representation,
@@ -26,6 +30,7 @@ from ._core import (
     feature_error,
     features,
     jacobian,
+    joint_velocities,
     se3_exp,
     segment_angle,
     segment_angle_jacobian,
@@ -35,6 +40,8 @@ from ._core import (
 
 __all__ = [
     "AdaptiveGain",
+    "JointMapping",
+    "JointMappingResult",
     "Layout",
     "PartitionedServo",
     "Representation",
@@ -49,6 +56,7 @@ __all__ = [
     "feature_error",
     "features",
     "jacobian",
+    "joint_velocities",
     "se3_exp",
     "segment_angle",
     "segment_angle_jacobian",

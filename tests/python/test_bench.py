@@ -131,6 +131,15 @@ def test_cpp_bench_undamped_dynamic_kernel_allocates_nothing(cpp_bench: str) -> 
         assert c["allocs_per_call"] == 0, c
 
 
+def test_cpp_bench_robot_mapping_allocates_nothing(cpp_bench: str) -> None:
+    out = subprocess.run([cpp_bench, "--iterations", "200", "--sections", "robot", "--json"], check=True,
+                         capture_output=True, text=True, timeout=300).stdout
+    cases = json.loads(out)["cases"]
+    assert {c["n"] for c in cases} == {6, 7, 16}
+    for c in cases:
+        assert c["name"].startswith("JointMapping::update") and c["allocs_per_call"] == 0, c
+
+
 def test_cpp_bench_rejects_bad_options(cpp_bench: str) -> None:
     for bad in (["--layout", "nope"], ["--damping", "0"], ["--iterations", "x"], ["--frobnicate"]):
         r = subprocess.run([cpp_bench, *bad], check=False, capture_output=True, text=True, timeout=60)

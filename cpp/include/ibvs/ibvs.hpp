@@ -6,6 +6,7 @@
 #include "ibvs/features.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/pinv.hpp"
+#include "ibvs/robot_mapping.hpp"
 #include "ibvs/se3.hpp"
 #include "ibvs/servo.hpp"
 #include "ibvs/version.hpp"
