@@ -34,6 +34,93 @@ Joints joints_arg(py::handle obj, const char* name) {
   return Eigen::Map<const Joints>(a.data());
 }
 
+/// (n,) joint values of a robot with n joints.
+JointVector joint_vector_arg(py::handle obj, const char* name, int n) {
+  const CArray a = as_array(obj, name);
+  if (a.ndim() != 1 || a.shape(0) != n)
+    throw py::value_error(std::string(name) + " must have shape (" + std::to_string(n) + ",), got " + shape_of(a));
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), n);
+}
+
+/// (n,) limits, 1 <= n <= max_joints (n from the first of them).
+JointVector limits_arg(py::handle obj, const char* name) {
+  const CArray a = as_array(obj, name);
+  if (a.ndim() != 1 || a.shape(0) < 1 || a.shape(0) > max_joints)
+    throw py::value_error(std::string(name) + " must have shape (n,) with 1 <= n <= " + std::to_string(max_joints) +
+                          ", got " + shape_of(a));
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
+}
+
+JacobianFrame frame_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("frame must be 'end_effector' or 'base', got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  const auto s = obj.cast<std::string>();
+  if (s == "end_effector") return JacobianFrame::end_effector;
+  if (s == "base") return JacobianFrame::base;
+  throw py::value_error("frame must be 'end_effector' or 'base', got '" + s + "'");
+}
+
+// ibvs.sim.Robot for Python subclasses: kinematics() calls the subclass's
+// kinematics(q) -> (T_we (4, 4), J (6, n)). A Python exception cannot cross
+// the noexcept episode loop: the first one is kept here, kinematics() returns
+// false (the episode stops) and the binding raises it after the run.
+class PyRobot : public Robot {
+ public:
+  mutable std::exception_ptr error;
+
+  bool kinematics(const JointVector& q, Pose& T_we, RobotJacobian& J) const noexcept override {
+    try {
+      py::gil_scoped_acquire gil;
+      py::function f = py::get_override(static_cast<const Robot*>(this), "kinematics");
+      if (!f) throw py::type_error("a subclass of ibvs.sim.Robot must define kinematics(q) -> (T_we, J)");
+      const py::object r = f(py::array_t<double>(q.size(), q.data()));
+      if (!py::isinstance<py::tuple>(r) || py::len(r) != 2)
+        throw py::type_error("kinematics(q) must return a tuple (T_we (4, 4), J (6, n))");
+      const auto t = r.cast<py::tuple>();
+      T_we = pose_arg(t[0], "kinematics(q)[0] (T_we)");
+      const CArray a = as_array(t[1], "kinematics(q)[1] (J)");
+      if (a.ndim() != 2 || a.shape(0) != 6 || a.shape(1) != dof())
+        throw py::value_error("kinematics(q)[1] (J) must have shape (6, " + std::to_string(dof()) + "), got " +
+                              shape_of(a));
+      J = Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>>(a.data(), 6, dof());
+      return true;
+    } catch (...) {
+      if (!error) error = std::current_exception();
+      return false;
+    }
+  }
+
+  /// Raises the kept exception, if any (and forgets it).
+  void raise() const {
+    if (!error) return;
+    std::exception_ptr e = error;
+    error = nullptr;
+    std::rethrow_exception(e);
+  }
+};
+
+// kinematics() of any robot from Python: (T_we, J), or the robot's exception.
+py::tuple kinematics_of(const Robot& r, const JointVector& q) {
+  Pose T;
+  RobotJacobian J;
+  const bool ok = r.kinematics(q, T, J);
+  if (auto* p = dynamic_cast<const PyRobot*>(&r)) p->raise();
+  if (!ok) throw py::value_error("the robot's kinematics failed at q");
+  return py::make_tuple(Eigen::Matrix4d(T), Eigen::MatrixXd(J));
+}
+
+// Robot methods that call kinematics(): a Python robot's exception is raised as itself.
+template <class F>
+auto calling_kinematics(const Robot& r, F f) {
+  try {
+    return f();
+  } catch (const std::invalid_argument&) {
+    if (auto* p = dynamic_cast<const PyRobot*>(&r)) p->raise();
+    throw;
+  }
+}
+
 Twist twist_arg(py::handle obj, const char* name) {
   const CArray a = as_array(obj, name);
   if (a.ndim() != 1 || a.shape(0) != 6) throw py::value_error(std::string(name) + " must have shape (6,), got " + shape_of(a));
@@ -100,7 +187,7 @@ AnyServo servo_copy(py::handle obj) {
                        std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
 }
 
-py::dict result_dict(const EpisodeResult& r, bool gantry) {
+py::dict result_dict(const EpisodeResult& r, bool robot) {
   const History& h = r.history;
   const int k = h.frames;
   const py::ssize_t n = r.uv_desired.cols(), m = h.error.cols();
@@ -123,9 +210,10 @@ py::dict result_dict(const EpisodeResult& r, bool gantry) {
   d["error"] = rows_of(h.error, k, {m});
   d["error_norm"] = rows_of(h.error_norm, k);
   d["sigma_min"] = rows_of(h.sigma_min, k);
-  if (gantry) {
-    d["q"] = rows_of(h.q, k, {6});
-    d["qdot"] = rows_of(h.qdot, k, {6});
+  if (robot) {
+    const py::ssize_t nq = h.q.cols();
+    d["q"] = rows_of(h.q, k, {nq});
+    d["qdot"] = rows_of(h.qdot, k, {nq});
     d["manipulability"] = rows_of(h.manipulability, k);
   }
   py::array_t<double> uvd({n, py::ssize_t{2}});
@@ -248,13 +336,78 @@ normalize(): measurement -> normalised with kdu.)")
             return t;
           }));
 
-  py::class_<Gantry>(s, "Gantry", "Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange.")
+  py::class_<Robot, PyRobot>(s, "Robot", R"(A robot carrying the camera, for ibvs.sim.run(..., robot=...).
+
+Subclass it in Python and define kinematics(q) -> (T_we, J): the world (base) <- end-effector pose
+(4, 4) and the end-effector Jacobian (6, n) at the joints q (n,), in `frame` ("end_effector": linear
+velocity of the end effector's origin and angular velocity in the end-effector frame, Pinocchio's
+LOCAL; "base": both in the base frame, Pinocchio's LOCAL_WORLD_ALIGNED). ibvs.sim.UrdfRobot is one.
+
+Robot(q_min, q_max, qdot_max, mount, frame="end_effector", damping=0.0, singular_region=0.0)
+  q_min, q_max (n,)  joint position limits (m or rad); qdot_max (n,) speed limits > 0 (inf = none)
+  mount (4, 4)       end-effector <- camera (eMc)
+  damping, singular_region  of the JointMapping that turns the camera twist into joint velocities
+The episode loop calls kinematics() once per frame and holds the GIL for such a robot.)")
+      .def(py::init([](py::handle q_min, py::handle q_max, py::handle qdot_max, py::handle mount, py::handle frame,
+                       double damping, double singular_region) {
+             auto r = std::make_unique<PyRobot>();
+             r->q_min = limits_arg(q_min, "q_min");
+             const int n = r->dof();
+             r->q_max = joint_vector_arg(q_max, "q_max", n);
+             r->qdot_max = joint_vector_arg(qdot_max, "qdot_max", n);
+             r->mount = pose_arg(mount, "mount");
+             r->mapping.frame = frame_arg(frame);
+             r->mapping.damping = damping;
+             r->mapping.singular_region = singular_region;
+             r->validate();
+             return r;
+           }),
+           py::arg("q_min"), py::arg("q_max"), py::arg("qdot_max"), py::arg("mount"), py::arg("frame") = "end_effector",
+           py::arg("damping") = 0.0, py::arg("singular_region") = 0.0)
+      .def_property_readonly("dof", &Robot::dof, "Number of joints n.")
+      .def_property_readonly("q_min", [](const Robot& r) { return Eigen::VectorXd(r.q_min); }, "(n,) lower joint limits.")
+      .def_property_readonly("q_max", [](const Robot& r) { return Eigen::VectorXd(r.q_max); }, "(n,) upper joint limits.")
+      .def_property_readonly("qdot_max", [](const Robot& r) { return Eigen::VectorXd(r.qdot_max); },
+                             "(n,) joint speed limits.")
+      .def_property_readonly("mount", [](const Robot& r) { return Eigen::Matrix4d(r.mount); },
+                             "end-effector <- camera (eMc), 4x4.")
+      .def_property_readonly("frame", [](const Robot& r) { return to_string(r.mapping.frame); },
+                             "Frame of the Jacobian kinematics() returns: 'end_effector' or 'base'.")
+      .def_property_readonly("damping", [](const Robot& r) { return r.mapping.damping; })
+      .def_property_readonly("singular_region", [](const Robot& r) { return r.mapping.singular_region; })
+      .def(
+          "kinematics", [](Robot& r, py::handle q) { return kinematics_of(r, joint_vector_arg(q, "q", r.dof())); },
+          py::arg("q"), "(T_we (4, 4) world <- end-effector, J (6, n) end-effector Jacobian in `frame`) at q.")
+      .def(
+          "camera",
+          [](Robot& r, py::handle q) {
+            const JointVector qv = joint_vector_arg(q, "q", r.dof());
+            return calling_kinematics(r, [&] { return Eigen::Matrix4d(r.camera(qv)); });
+          },
+          py::arg("q"), "world <- camera, 4x4.")
+      .def(
+          "jacobian",
+          [](Robot& r, py::handle q) {
+            const JointVector qv = joint_vector_arg(q, "q", r.dof());
+            return calling_kinematics(r, [&] { return Eigen::MatrixXd(r.camera_jacobian(qv)); });
+          },
+          py::arg("q"), "(6, n) camera Jacobian: camera twist (camera frame) = J @ qdot.")
+      .def(
+          "joint_velocity",
+          [](Robot& r, py::handle q, py::handle v) {
+            const JointVector qv = joint_vector_arg(q, "q", r.dof());
+            const Twist t = twist_arg(v, "twist");
+            return calling_kinematics(r, [&] { return Eigen::VectorXd(r.joint_velocity(qv, t)); });
+          },
+          py::arg("q"), py::arg("twist"),
+          "Joint velocities (n,) for the camera twist at q, by the robot's JointMapping (before the speed limits).")
+      .def(
+          "outside_limits", [](const Robot& r, py::handle q) { return r.outside_limits(joint_vector_arg(q, "q", r.dof())); },
+          py::arg("q"), "Index of the first joint outside its range, or -1.")
+      .def("__repr__", &Robot::describe);
+
+  py::class_<Gantry, Robot>(s, "Gantry", "Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange.")
       .def_static("afma6", &Gantry::afma6, "ViSP vpAfma6 defaults with the distorted-camera mount.")
-      .def_readonly("q_min", &Gantry::q_min)
-      .def_readonly("q_max", &Gantry::q_max)
-      .def_readonly("qdot_max", &Gantry::qdot_max)
-      .def_property_readonly("mount", [](const Gantry& g) { return Eigen::Matrix4d(g.mount); },
-                             "end-effector <- camera, 4x4.")
       .def_readonly("coupling", &Gantry::coupling)
       .def_readonly("offset", &Gantry::offset)
       .def(
@@ -271,39 +424,28 @@ normalize(): measurement -> normalised with kdu.)")
           "A copy with other joint position / speed limits.")
       .def("end_effector", [](const Gantry& g, py::handle q) { return Eigen::Matrix4d(g.end_effector(joints_arg(q, "q"))); },
            py::arg("q"), "world <- end-effector, 4x4.")
-      .def("camera", [](const Gantry& g, py::handle q) { return Eigen::Matrix4d(g.camera(joints_arg(q, "q"))); },
-           py::arg("q"), "world <- camera, 4x4.")
-      .def("jacobian", [](const Gantry& g, py::handle q) { return Matrix6(g.jacobian(joints_arg(q, "q"))); },
-           py::arg("q"), "(6, 6): camera twist (camera frame) = J @ qdot.")
-      .def(
-          "joint_velocity",
-          [](const Gantry& g, py::handle q, py::handle v) {
-            return Joints(g.joint_velocity(joints_arg(q, "q"), twist_arg(v, "twist")));
-          },
-          py::arg("q"), py::arg("twist"), "Joint velocities producing the camera twist (damped near q5 = +-pi/2).")
       .def(
           "manipulability", [](const Gantry& g, py::handle q) { return g.manipulability(joints_arg(q, "q")); },
           py::arg("q"), "|det jacobian(q)| = |cos q5|.")
-      .def(
-          "outside_limits", [](const Gantry& g, py::handle q) { return g.outside_limits(joints_arg(q, "q")); },
-          py::arg("q"), "Index of the first joint outside its range, or -1.")
       .def("__repr__", &Gantry::describe)
+      // Pickling (process pools, Dask): every field, re-validated on load.
       .def(py::pickle(
           [](const Gantry& g) {
-            return py::make_tuple(g.q_min, g.q_max, g.qdot_max, Eigen::Matrix4d(g.mount), g.coupling, g.offset,
-                                  g.singular_region, g.max_damping);
+            return py::make_tuple(Eigen::VectorXd(g.q_min), Eigen::VectorXd(g.q_max), Eigen::VectorXd(g.qdot_max),
+                                  Eigen::Matrix4d(g.mount), g.coupling, g.offset, g.mapping.singular_region,
+                                  g.mapping.damping);
           },
           [](const py::tuple& s) {
             if (s.size() != 8) throw py::value_error("Gantry: bad pickle state");
-            Gantry g;
-            g.q_min = s[0].cast<Joints>();
-            g.q_max = s[1].cast<Joints>();
-            g.qdot_max = s[2].cast<Joints>();
+            Gantry g = Gantry::afma6();
+            g.q_min = s[0].cast<Eigen::VectorXd>();
+            g.q_max = s[1].cast<Eigen::VectorXd>();
+            g.qdot_max = s[2].cast<Eigen::VectorXd>();
             g.mount = s[3].cast<Eigen::Matrix4d>();
             g.coupling = s[4].cast<double>();
             g.offset = s[5].cast<double>();
-            g.singular_region = s[6].cast<double>();
-            g.max_damping = s[7].cast<double>();
+            g.mapping.singular_region = s[6].cast<double>();
+            g.mapping.damping = s[7].cast<double>();
             g.validate();
             return g;
           }));
@@ -311,7 +453,7 @@ normalize(): measurement -> normalised with kdu.)")
   s.def(
       "_run",
       [](py::handle servo, const Camera& camera, const Target& target, py::handle start, py::handle goal,
-          std::optional<Gantry> robot, double duration, double noise, int latency, py::handle depth,
+          py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain) {
         EpisodeOptions o;
@@ -328,20 +470,34 @@ normalize(): measurement -> normalised with kdu.)")
         o.boundary_margin = boundary_margin;
         o.boundary_gain = boundary_gain;
         AnyServo sv = servo_copy(servo);
-        if (robot) {
-          const Joints qs = joints_arg(start, "start");
+        if (!robot.is_none()) {
+          if (!py::isinstance<Robot>(robot))
+            throw py::type_error("robot must be an ibvs.sim.Robot (e.g. a Gantry or a UrdfRobot) or None, got " +
+                                 std::string(py::str(py::type::handle_of(robot).attr("__name__"))));
+          // The C++ gantry is copied and run without the GIL; a Python robot is
+          // shared for the call (the caller holds it) and needs the GIL.
+          Robot& rb = robot.cast<Robot&>();
+          auto* py_robot = dynamic_cast<PyRobot*>(&rb);
+          std::shared_ptr<Robot> held;
+          if (py_robot) held = std::shared_ptr<Robot>(&rb, [](Robot*) {});
+          else held = std::make_shared<Gantry>(robot.cast<const Gantry&>());
+          const int n = rb.dof();
+          const JointVector qs = joint_vector_arg(start, "start", n);
           const CArray g = as_array(goal, "goal");
-          Episode e(std::move(sv), camera, target, *robot, o);
-          const EpisodeResult* r;
-          if (g.ndim() == 1) {
-            const Joints qg = joints_arg(goal, "goal");
-            py::gil_scoped_release release;
-            r = &e.run(qs, qg);
-          } else {
-            const Pose pg = pose_arg(goal, "goal");
-            py::gil_scoped_release release;
-            r = &e.run(qs, pg);
+          const bool goal_joints = g.ndim() == 1;
+          const JointVector qg = goal_joints ? joint_vector_arg(goal, "goal", n) : JointVector();
+          const Pose pg = goal_joints ? Pose() : pose_arg(goal, "goal");
+          Episode e(std::move(sv), camera, target, held, o);
+          const EpisodeResult* r = nullptr;
+          try {
+            std::optional<py::gil_scoped_release> release;
+            if (!py_robot) release.emplace();
+            r = goal_joints ? &e.run(qs, qg) : &e.run(qs, pg);
+          } catch (const std::invalid_argument&) {
+            if (py_robot) py_robot->raise();  // the robot's own error, raised in kinematics()
+            throw;
           }
+          if (py_robot) py_robot->raise();
           return result_dict(*r, true);
         }
         const Pose ps = pose_arg(start, "start"), pg = pose_arg(goal, "goal");

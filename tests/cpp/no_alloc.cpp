@@ -6,6 +6,7 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/robot_mapping.hpp"
 #include "sim_cases.hpp"
 
 #include <atomic>
@@ -88,6 +89,29 @@ void episode_allocates_nothing() {
   }
 }
 
+// The episode on a generic robot with n = 7 joints (JointMapping with a
+// redundant Jacobian, joint history of 7 columns).
+void robot_episode_allocates_nothing() {
+  using namespace sim_cases;
+  EpisodeOptions o;
+  o.duration = 5.0;
+  o.depth = DepthMode::estimated;
+  ServoOptions so;
+  so.gain = 2.0;
+  Episode e(Servo(Layout::stacked(4), so), Camera::afma6(), gantry_target(Gantry::afma6()),
+            std::make_shared<StackedGantry>(), o);
+  const JointVector qs = stacked_start(), qg = stacked_goal();
+  const Pose goal = e.robot()->camera(qg);
+  const long before = news.load();
+  Eigen::internal::set_is_malloc_allowed(false);
+  const EpisodeResult& r = e.run(qs, goal);
+  Eigen::internal::set_is_malloc_allowed(true);
+  const long during = news.load() - before;
+  ibvs_test::report(during == 0, "no allocation in Episode::run on a 7-joint robot", __FILE__, __LINE__,
+                    std::to_string(during));
+  CHECK(r.history.frames > 10 && r.history.q.cols() == 7);
+}
+
 // PartitionedServo::update: fixed 8 rows and the bounded dynamic workspace (256 rows).
 void partitioned_allocates_nothing() {
   for (int n : {4, 3, 128}) {
@@ -119,9 +143,49 @@ void partitioned_allocates_nothing() {
   }
 }
 
+// JointMapping::update: SVD of the 6 x n camera Jacobian (n up to max_joints,
+// stack storage), damping, variable damping, null-space task, speed limits,
+// both Jacobian frames, and the invalid-input path.
+void joint_mapping_allocates_nothing() {
+  for (int n : {1, 3, 6, 7, max_joints}) {
+    for (JacobianFrame frame : {JacobianFrame::end_effector, JacobianFrame::base}) {
+      for (double damping : {0.0, 0.05}) {
+        JointMappingOptions o;
+        o.frame = frame;
+        o.damping = damping;
+        o.singular_region = damping > 0.0 ? 10.0 : 0.0;  // inside the region: variable damping active
+        o.max_joint_speed = JointVector::Constant(n, 0.01);
+        Pose eMc = Pose::Identity();
+        eMc.topRightCorner<3, 1>() << 0.05, -0.02, 0.1;
+        JointMapping map(n, eMc, o);
+        JointMappingInput in(n);
+        JointMappingOutput out(n);
+        for (int j = 0; j < n; ++j)
+          for (int i = 0; i < 6; ++i) in.jacobian(i, j) = std::sin(1.0 + i + 7.0 * j);
+        in.twist << 0.1, -0.2, 0.05, 0.3, -0.1, 0.2;
+        in.base_rotation = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+        in.secondary.setConstant(0.3);
+        const long before = news.load();
+        Eigen::internal::set_is_malloc_allowed(false);
+        Status st = Status::ok;
+        for (int k = 0; k < 3; ++k) st = map.update(in, out);
+        in.twist(0) = std::nan("");  // the invalid-input path must not allocate either
+        const Status bad = map.update(in, out);
+        Eigen::internal::set_is_malloc_allowed(true);
+        const long during = news.load() - before;
+        ibvs_test::report(during == 0, "no allocation in JointMapping::update", __FILE__, __LINE__,
+                          std::to_string(n) + " joints: " + std::to_string(during));
+        CHECK(st != Status::invalid_input && bad == Status::invalid_input);
+      }
+    }
+  }
+}
+
 void run_tests() {
   episode_allocates_nothing();
   partitioned_allocates_nothing();
+  joint_mapping_allocates_nothing();
+  robot_episode_allocates_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

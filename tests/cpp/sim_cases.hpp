@@ -45,4 +45,37 @@ inline Target gantry_target(const Gantry& g) {
   return Target::square(0.1, g.camera(gantry_goal()) * make_pose(0, 0, 0.6, 0, 0, 0));
 }
 
+/// A redundant robot for the episode tests (n = 7): the gantry with a second
+/// z slide q7 stacked on the first (its FK sees q3 + q7; Jacobian column 7 =
+/// column 3), and a failure switch for kinematics().
+struct StackedGantry final : Robot {
+  Gantry g = Gantry::afma6();
+  bool fail = false;
+  StackedGantry() {
+    q_min.resize(7);
+    q_max.resize(7);
+    qdot_max.resize(7);
+    q_min << g.q_min, -0.5;
+    q_max << g.q_max, 0.5;
+    qdot_max << g.qdot_max, 0.2;
+    mount = g.mount;
+    mapping = g.mapping;
+  }
+  static Joints folded(const JointVector& q) {
+    Joints q6 = q.head<6>();
+    q6(2) += q(6);
+    return q6;
+  }
+  bool kinematics(const JointVector& q, Pose& T_we, RobotJacobian& J) const noexcept override {
+    RobotJacobian J6;
+    if (fail || !g.kinematics(folded(q), T_we, J6)) return false;
+    J.resize(6, 7);
+    J << J6, J6.col(2);
+    return true;
+  }
+};
+
+inline JointVector stacked_start() { return (JointVector(7) << gantry_start(), 0.0).finished(); }
+inline JointVector stacked_goal() { return (JointVector(7) << gantry_goal(), 0.0).finished(); }
+
 }  // namespace sim_cases

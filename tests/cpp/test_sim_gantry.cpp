@@ -87,13 +87,29 @@ void inverse_damping_and_saturation() {
   const Joints qd = g.joint_velocity(qs, v);
   CHECK(qd.allFinite());
   CHECK(qd.norm() < 100.0);
-  // Saturation: one common factor, every joint within its speed limit.
-  const Joints fast = (Joints() << 1.0, -0.1, 0.05, 3.0, 0.2, -0.1).finished();
-  const Joints s = g.saturate(fast);
-  for (int i = 0; i < 6; ++i) CHECK(std::abs(s(i)) <= g.qdot_max(i) * (1 + 1e-15));
-  CHECK_NEAR(s.normalized().dot(fast.normalized()), 1.0, 1e-15);
-  CHECK_NEAR(std::abs(s(0)), g.qdot_max(0), 1e-15);  // the tightest joint is at its limit
-  CHECK(g.saturate(0.01 * fast) == 0.01 * fast);
+  // Nakamura-Hanafusa damping on w = |det J| = |cos q5| (robot_mapping.hpp eq. 3):
+  // none at the start pose, lambda^2 = (1 - (w / 0.1)^2) 0.01 just inside the region.
+  JointMapping map(6, g.mount, g.mapping_options());
+  JointMappingInput in(6);
+  JointMappingOutput mo(6);
+  Pose T;
+  in.twist = v;
+  CHECK(g.kinematics(q, T, in.jacobian));
+  in.base_rotation = T.topLeftCorner<3, 3>();
+  map.update(in, mo);
+  CHECK(mo.damping == 0.0 && (mo.camera_jacobian * mo.qdot - v).norm() < 1e-12);
+  CHECK_NEAR(mo.manipulability, g.manipulability(q), 1e-12);
+  Joints near = q;
+  near(4) = std::acos(0.05);
+  CHECK(g.kinematics(near, T, in.jacobian));
+  in.base_rotation = T.topLeftCorner<3, 3>();
+  map.update(in, mo);
+  CHECK_NEAR(mo.damping * mo.damping, (1 - 0.25) * 0.01, 1e-12);
+  // Speed limits: one common factor, every joint within its limit.
+  in.twist = 20.0 * v;
+  map.update(in, mo);
+  CHECK(mo.saturated);
+  for (int i = 0; i < 6; ++i) CHECK(std::abs(mo.qdot(i)) <= g.qdot_max(i) * (1 + 1e-15));
   CHECK(g.outside_limits(q) == -1);
   Joints out = q;
   out(2) = 0.47;

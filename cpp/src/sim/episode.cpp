@@ -119,15 +119,24 @@ Episode::Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions op
   result_.depth_desired.resize(n);
 }
 
-Episode::Episode(AnyServo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options)
+Episode::Episode(AnyServo servo, Camera camera, Target target, std::shared_ptr<Robot> robot,
+                 EpisodeOptions options)
     : Episode(std::move(servo), camera, std::move(target), options) {
-  gantry.validate();
-  gantry_ = gantry;
+  if (!robot) throw std::invalid_argument("ibvs: robot must not be null");
+  robot->validate();
+  robot_ = std::move(robot);
+  const int n = robot_->dof();
+  mapping_.emplace(n, robot_->mount, robot_->mapping_options());
+  joint_in_ = JointMappingInput(n);
+  joint_out_ = JointMappingOutput(n);
   History& h = result_.history;
-  h.q.resize(h.time.size(), 6);
-  h.qdot.resize(h.time.size(), 6);
+  h.q.resize(h.time.size(), n);
+  h.qdot.resize(h.time.size(), n);
   h.manipulability.resize(h.time.size());
 }
+
+Episode::Episode(AnyServo servo, Camera camera, Target target, const Gantry& gantry, EpisodeOptions options)
+    : Episode(std::move(servo), camera, std::move(target), std::make_shared<Gantry>(gantry), options) {}
 
 // Desired features as the camera measures them at the goal (teach by showing).
 void Episode::prepare(const Pose& goal) {
@@ -148,38 +157,49 @@ void Episode::prepare(const Pose& goal) {
 }
 
 const EpisodeResult& Episode::run(const Pose& start, const Pose& goal) {
-  if (gantry_) throw std::invalid_argument("ibvs: start: this episode has a gantry; give joint positions");
+  if (robot_) throw std::invalid_argument("ibvs: start: this episode has a robot; give joint positions");
   check_rigid(start, "start");
   prepare(goal);
   loop(start, nullptr);
   return result_;
 }
 
-const EpisodeResult& Episode::run(const Joints& q_start, const Pose& goal) {
-  if (!gantry_) throw std::invalid_argument("ibvs: start: joint positions need a gantry");
+const EpisodeResult& Episode::run(const JointVector& q_start, const Pose& goal) {
+  if (!robot_) throw std::invalid_argument("ibvs: start: joint positions need a robot");
+  const int n = robot_->dof();
+  if (q_start.size() != n)
+    throw std::invalid_argument("ibvs: start must have " + std::to_string(n) + " joint positions, got " +
+                                std::to_string(q_start.size()));
   if (!q_start.allFinite()) throw std::invalid_argument("ibvs: start joints must be finite");
-  const int j = gantry_->outside_limits(q_start);
+  const int j = robot_->outside_limits(q_start);
   if (j >= 0)
     throw std::invalid_argument("ibvs: start: joint " + std::to_string(j + 1) + " = " + std::to_string(q_start(j)) +
                                 " is outside its limits");
+  const Pose T_wc = robot_->camera(q_start);  // throws if the kinematics fail
   prepare(goal);
-  loop(gantry_->camera(q_start), &q_start);
+  loop(T_wc, &q_start);
   return result_;
 }
 
-const EpisodeResult& Episode::run(const Joints& q_start, const Joints& q_goal) {
-  if (!gantry_) throw std::invalid_argument("ibvs: goal: joint positions need a gantry");
+const EpisodeResult& Episode::run(const JointVector& q_start, const JointVector& q_goal) {
+  if (!robot_) throw std::invalid_argument("ibvs: goal: joint positions need a robot");
+  if (q_goal.size() != robot_->dof())
+    throw std::invalid_argument("ibvs: goal must have " + std::to_string(robot_->dof()) + " joint positions, got " +
+                                std::to_string(q_goal.size()));
   if (!q_goal.allFinite()) throw std::invalid_argument("ibvs: goal joints must be finite");
-  return run(q_start, gantry_->camera(q_goal));
+  return run(q_start, robot_->camera(q_goal));
 }
 
-void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
+void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   const int n = target_.size();
   const int K = capacity();
   const int slots = options_.latency + 1;
   const double dt = 1.0 / camera_.fps;
-  const bool gantry = q_start != nullptr;
-  Joints q = gantry ? *q_start : Joints::Zero();
+  const bool robot = q_start != nullptr;
+  JointVector q = robot ? *q_start : JointVector();
+  // The robot's end-effector pose and Jacobian at q (kinematics() once per frame).
+  Pose T_we = Pose::Identity();
+  bool kinematics_ok = !robot || robot_->kinematics(q, T_we, joint_in_.jacobian);
   std::mt19937_64 rng(options_.seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const Eigen::Vector3d centroid_w = target_.pose.topLeftCorner<3, 3>() * centroid_ + target_.pose.topRightCorner<3, 1>();
@@ -198,14 +218,14 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
     // 1. Pose and bookkeeping of this frame.
     h.time(k) = k * dt;
     Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(h.pose.row(k).data()) = T_wc;
-    if (gantry) h.q.row(k) = q.transpose();
+    if (robot) h.q.row(k) = q.transpose();
     h.twist.row(k).setZero();
     h.uv.row(k).setConstant(nan);
     h.rtheta.row(k).setConstant(nan);
     h.depth.row(k).setConstant(nan);
     h.error.row(k).setConstant(nan);
     h.error_norm(k) = h.sigma_min(k) = nan;
-    if (gantry) {
+    if (robot) {
       h.qdot.row(k).setZero();
       h.manipulability(k) = nan;
     }
@@ -214,7 +234,7 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
     const double target_depth = (Rcw * centroid_w + tcw)(2);
     if (k == 0) depth0 = target_depth;
     mt.camera_retreat = std::max(mt.camera_retreat, target_depth - depth0);
-    if (!T_wc.allFinite() || target_depth > options_.max_depth_ratio * std::abs(depth0)) {
+    if (!kinematics_ok || !T_wc.allFinite() || target_depth > options_.max_depth_ratio * std::abs(depth0)) {
       st = {Outcome::diverged, k, -1, -1};
       break;
     }
@@ -321,18 +341,22 @@ void Episode::loop(Pose T_wc, const Joints* q_start) noexcept {
 
     // 6. Motion until the next frame.
     Pose T_next;
-    if (gantry) {
-      const Joints qdot = gantry_->saturate(gantry_->joint_velocity(q, out_.velocity));
-      h.manipulability(k) = gantry_->manipulability(q);
+    if (robot) {
+      joint_in_.twist = out_.velocity;
+      joint_in_.base_rotation = T_we.topLeftCorner<3, 3>();
+      mapping_->update(joint_in_, joint_out_);  // qdot within qdot_max; the Jacobian came with T_we
+      const JointVector& qdot = joint_out_.qdot;
+      h.manipulability(k) = joint_out_.manipulability;
       h.qdot.row(k) = qdot.transpose();
-      const Joints q_next = q + dt * qdot;
-      const int j = gantry_->outside_limits(q_next);
+      const JointVector q_next = q + dt * qdot;
+      const int j = robot_->outside_limits(q_next);
       if (j >= 0) {
         st = {Outcome::joint_limit, k, -1, j};
         break;
       }
       q = q_next;
-      T_next = gantry_->camera(q);
+      kinematics_ok = robot_->kinematics(q, T_we, joint_in_.jacobian);  // checked at the next frame
+      T_next = T_we * robot_->mount;
     } else {
       T_next = T_wc * se3_exp(out_.velocity * dt);  // exact SE(3) integration of the twist
     }

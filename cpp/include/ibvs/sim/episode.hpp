@@ -1,12 +1,12 @@
 // The closed loop of one episode, entirely in C++: camera -> measurement
 // (distortion, noise, latency) -> undistorted normalised points -> servo (a
-// Servo or a PartitionedServo) -> camera twist -> free-flying camera or gantry
-// joints -> next frame.
+// Servo or a PartitionedServo) -> camera twist -> free-flying camera or the
+// joints of a robot (sim/robot.hpp: the gantry, or any arm) -> next frame.
 //
 // Each frame k (period dt = 1 / fps):
 //   1. true camera pose T_wc(k): from the exact SE(3) integration of the
 //      previous command (free-flying, T_wc <- T_wc exp(v dt)) or from the
-//      gantry's forward kinematics at its joint positions;
+//      robot's forward kinematics at its joint positions (times its mount);
 //   2. the target's points in the camera frame; a point with depth below
 //      min_depth ends the episode (behind_camera), as does a point whose
 //      noise-free projection falls outside the sensor (left_image);
@@ -25,10 +25,13 @@
 //      ends when the error norm is under tolerance (converged), the servo
 //      reports a singular J (singular) or the error / target depth blows up
 //      (diverged);
-//   6. the twist moves the camera (free) or, on the gantry, becomes joint
-//      velocities through the damped inverse of the camera Jacobian, scaled
-//      uniformly to the speed limits; a joint leaving its range ends the
-//      episode (joint_limit) with the robot stopped at its last valid q.
+//   6. the twist moves the camera (free) or, on a robot, becomes joint
+//      velocities through the robot's JointMapping (robot_mapping.hpp: the
+//      damped inverse of its camera Jacobian at this frame's joints, scaled
+//      uniformly to its speed limits); q advances by dt qdot, and a joint
+//      leaving its range ends the episode (joint_limit) with the robot stopped
+//      at its last valid q. The robot's kinematics() is called once per frame,
+//      at the new joints (pose of the next frame, Jacobian of its mapping).
 // Desired features are measured the same way at the goal pose (teach by
 // showing), so the goal is an exact equilibrium of the noise-free loop.
 //
@@ -52,7 +55,7 @@
 // on the state s = (x, y, rho): the point's normalised image coordinates and
 // its inverse depth rho = 1/z. Prediction moves the point (x, y, 1) / rho by
 // the camera's motion between the two frames, as the robot's odometry knows it
-// (free flight: the exponential of the commanded twist; gantry: the forward
+// (free flight: the exponential of the commanded twist; robot: the forward
 // kinematics at the two joint vectors), and re-projects it: exact, where
 // integrating the interaction matrix (eq. 3 in rho, with
 // rhodot = rho^2 Tz + rho (wx y - wy x)) over the period is not. The
@@ -75,11 +78,13 @@
 #include "ibvs/sim/camera.hpp"
 #include "ibvs/sim/gantry.hpp"
 #include "ibvs/sim/planar_pose.hpp"
+#include "ibvs/sim/robot.hpp"
 #include "ibvs/sim/target.hpp"
 
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <random>
 #include <variant>
@@ -107,7 +112,7 @@ enum class Outcome : std::uint8_t {
   behind_camera = 2,  ///< a point's depth fell below min_depth (EpisodeStatus::point)
   joint_limit = 3,    ///< the next step would leave a joint's range (EpisodeStatus::joint)
   singular = 4,       ///< the servo reported a rank-deficient interaction matrix
-  diverged = 5,       ///< non-finite state, error or target depth beyond its bound
+  diverged = 5,       ///< non-finite state, error or target depth beyond its bound, or the robot's kinematics failed
   timeout = 6,        ///< duration elapsed
 };
 const char* to_string(Outcome o) noexcept;
@@ -163,14 +168,16 @@ struct History {
   int frames = 0;
   Eigen::VectorXd time;    ///< s
   RowMatrix pose;          ///< K x 16: world <- camera, 4x4 row-major
-  RowMatrix q, qdot;       ///< K x 6 (gantry only; 0 columns otherwise): qdot applied after frame k
+  RowMatrix q, qdot;       ///< K x n (robot only; 0 columns otherwise): qdot applied after frame k
   RowMatrix twist;         ///< K x 6: commanded camera twist
   RowMatrix uv;            ///< K x 2N: controller's (u, v) per point, normalised
   RowMatrix rtheta;        ///< K x 2N: the same points as (r, theta), theta in (-pi, pi]
   RowMatrix depth;         ///< K x N: depths given to the controller
   RowMatrix error;         ///< K x M: f (-) f* (the servo's error; M = 2N for a PartitionedServo)
   Eigen::VectorXd error_norm, sigma_min;
-  Eigen::VectorXd manipulability;  ///< |det| of the gantry's camera Jacobian (gantry only)
+  /// product of the camera Jacobian's singular values (JointMappingOutput::manipulability;
+  /// |det J| = |cos q5| on the gantry), robot only
+  Eigen::VectorXd manipulability;
 };
 
 struct EpisodeResult {
@@ -190,24 +197,32 @@ class Episode {
  public:
   /// Free-flying camera.
   Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions options = {});
-  /// Camera on the gantry.
-  Episode(AnyServo servo, Camera camera, Target target, Gantry gantry, EpisodeOptions options = {});
+  /// Camera on a robot (validated here; shared, not copied: run() calls its
+  /// kinematics(), so a robot must not be run by two episodes at once).
+  Episode(AnyServo servo, Camera camera, Target target, std::shared_ptr<Robot> robot, EpisodeOptions options = {});
+  /// Camera on the gantry (a copy of it).
+  Episode(AnyServo servo, Camera camera, Target target, const Gantry& gantry, EpisodeOptions options = {});
 
   /// Free-flying: start and goal are world <- camera poses.
   const EpisodeResult& run(const Pose& start, const Pose& goal);
-  /// Gantry: start joints; goal joints or a world <- camera pose.
-  const EpisodeResult& run(const Joints& q_start, const Joints& q_goal);
-  const EpisodeResult& run(const Joints& q_start, const Pose& goal);
+  /// Robot: start joints (n); goal joints or a world <- camera pose.
+  const EpisodeResult& run(const JointVector& q_start, const JointVector& q_goal);
+  const EpisodeResult& run(const JointVector& q_start, const Pose& goal);
+  const EpisodeResult& run(const Joints& q_start, const Joints& q_goal) {
+    return run(JointVector(q_start), JointVector(q_goal));
+  }
+  const EpisodeResult& run(const Joints& q_start, const Pose& goal) { return run(JointVector(q_start), goal); }
 
   const EpisodeResult& result() const noexcept { return result_; }
   int capacity() const noexcept { return static_cast<int>(result_.history.time.size()); }
-  bool has_gantry() const noexcept { return gantry_.has_value(); }
+  bool has_robot() const noexcept { return robot_ != nullptr; }
+  Robot* robot() const noexcept { return robot_.get(); }
   /// The servo run by this episode (std::get<Servo> or std::get<PartitionedServo>).
   AnyServo& servo() noexcept { return servo_; }
 
  private:
   void prepare(const Pose& goal);
-  void loop(Pose T_wc, const Joints* q_start) noexcept;
+  void loop(Pose T_wc, const JointVector* q_start) noexcept;
   double boundary_tz(int seen) const noexcept;
   void estimate_depth(int k) noexcept;
   double depth_measurement_variance() const noexcept;
@@ -216,7 +231,10 @@ class Episode {
   ServoOutput out_;
   Camera camera_;
   Target target_;
-  std::optional<Gantry> gantry_;
+  std::shared_ptr<Robot> robot_;
+  std::optional<JointMapping> mapping_;  // the robot's, sized for its n joints
+  JointMappingInput joint_in_{1};
+  JointMappingOutput joint_out_{1};
   EpisodeOptions options_;
   std::optional<PlanarPose> estimator_;
   Eigen::Matrix3Xd world_points_;

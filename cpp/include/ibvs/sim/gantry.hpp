@@ -15,6 +15,7 @@
 
 #include "ibvs/features.hpp"
 #include "ibvs/se3.hpp"
+#include "ibvs/sim/robot.hpp"
 
 #include <Eigen/Core>
 
@@ -28,44 +29,37 @@ using Matrix6 = Eigen::Matrix<double, 6, 6>;
 /// Rotation from ViSP's rxyz angles: R = Rx(rx) Ry(ry) Rz(rz).
 Eigen::Matrix3d rxyz(double rx, double ry, double rz) noexcept;
 
-struct Gantry {
-  Joints q_min, q_max;   ///< joint position limits (m, m, m, rad, rad, rad)
-  Joints qdot_max;       ///< joint speed limits (m/s, rad/s), > 0
-  Pose mount = Pose::Identity();  ///< end-effector <- camera (eMc)
+/// The gantry as a Robot: q_min, q_max, qdot_max (m, m, m, rad, rad, rad),
+/// mount = eMc; kinematics() reports the end effector's Jacobian in the fixed
+/// (base) frame. Its joint mapping (Robot::mapping) is the damped inverse of
+/// the camera Jacobian driven by the manipulability w = |det J| = |cos q5|
+/// (the only singularity: wrist axes 4 and 6 aligned at q5 = +-pi/2): exact
+/// while w >= singular_region = 0.1, below it
+/// lambda^2 = (1 - (w / 0.1)^2) 0.1^2 (robot_mapping.hpp eq. 3).
+struct Gantry final : Robot {
   double coupling = 0.009091;     ///< q6' = q6 - coupling q5
   double offset = -0.06924;       ///< l, metres, between joints 5 and 6
-  /// Damped inverse of the camera Jacobian, driven by the manipulability
-  /// w = |det J| = |cos q5| (the only singularity: wrist axes 4 and 6
-  /// aligned at q5 = +-pi/2): plain inverse while w >= singular_region;
-  /// below, lambda^2 = (1 - (w / singular_region)^2) max_damping^2
-  /// (Nakamura and Hanafusa's variable damping).
-  double singular_region = 0.1;
-  double max_damping = 0.1;
 
   /// ViSP's vpAfma6 with the distorted-camera tool (CCMOP): limits and
   /// mount from the issue; speed limits (0.2 m/s, 0.7 rad/s) are ours.
   static Gantry afma6();
 
   Pose end_effector(const Joints& q) const noexcept;  ///< fixed <- end-effector
-  Pose camera(const Joints& q) const noexcept;        ///< fixed <- camera
   /// The camera twist (camera frame, ibvs convention) produced by joint
   /// velocities: v = J(q) qdot.
   Matrix6 jacobian(const Joints& q) const noexcept;
   /// |det jacobian(q)| = |cos q5|: the rotation blocks have determinant 1 and
   /// the prismatic joints give an identity block, leaving det[ez, a5, ze].
   double manipulability(const Joints& q) const noexcept;
-  /// qdot with J(q) qdot = v: LU solve, or damped least squares
-  /// (J^T J + lambda^2 I)^-1 J^T v near the singularity (see singular_region).
-  Joints joint_velocity(const Joints& q, const Twist& v) const noexcept;
-  /// qdot scaled by one factor <= 1 so that every |qdot_i| <= qdot_max_i
-  /// (the direction, hence the camera path, is kept).
-  Joints saturate(const Joints& qdot) const noexcept;
-  /// Index of the first joint outside [q_min, q_max], or -1.
-  int outside_limits(const Joints& q) const noexcept;
 
+  bool kinematics(const JointVector& q, Pose& T_we, RobotJacobian& J) const noexcept override;
   /// Throws std::invalid_argument naming the bad field.
-  void validate() const;
-  std::string describe() const;
+  void validate() const override;
+  std::string describe() const override;
+
+ private:
+  /// Fixed-frame Jacobian of the end effector: linear velocity of its origin, angular velocity.
+  Matrix6 base_jacobian(const Joints& q) const noexcept;
 };
 
 }  // namespace ibvs::sim
