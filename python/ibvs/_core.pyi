@@ -172,6 +172,84 @@ class PartitionedServo:
     @property
     def segment(self) -> Tuple[int, int]: ...
 
+class JointMappingResult:
+    """Result of JointMapping.update()."""
+
+    @property
+    def status(self) -> Status:
+        """ok, or singular when the camera Jacobian has rank < min(6, n)."""
+    @property
+    def qdot(self) -> _FloatArray:
+        """(n,) joint velocities, m/s or rad/s per joint."""
+    @property
+    def camera_jacobian(self) -> _FloatArray:
+        """(6, n): camera twist (camera frame) = camera_jacobian @ qdot."""
+    @property
+    def sigma_min(self) -> float: ...
+    @property
+    def sigma_max(self) -> float: ...
+    @property
+    def manipulability(self) -> float:
+        """Product of the min(6, n) singular values of camera_jacobian (|det| for 6 joints)."""
+    @property
+    def damping(self) -> float:
+        """The damping applied this step."""
+    @property
+    def rank(self) -> int: ...
+    @property
+    def saturated(self) -> bool: ...
+    @property
+    def saturation_scale(self) -> float: ...
+
+class JointMapping:
+    """Camera twist -> joint velocities of the arm carrying the camera (damped least squares,
+    speed limits, null-space task). Frames: base b, end effector e, camera c; eMc = e <- c."""
+
+    def __init__(
+        self,
+        n_joints: int,
+        eMc: _ArrayLike,
+        frame: str = "end_effector",
+        damping: float = 0.0,
+        singular_region: float = 0.0,
+        max_joint_speed: Union[float, _ArrayLike, None] = None,
+    ) -> None: ...
+    def update(
+        self,
+        twist: _ArrayLike,
+        jacobian: _ArrayLike,
+        bRe: _ArrayLike | None = None,
+        secondary: _ArrayLike | None = None,
+    ) -> JointMappingResult:
+        """twist (6,) camera frame; jacobian (6, n) end-effector Jacobian in `frame`; bRe (3, 3) for
+        frame='base'; secondary (n,) joint velocities projected into the null space."""
+    @property
+    def n_joints(self) -> int: ...
+    @property
+    def eMc(self) -> _FloatArray:
+        """end-effector <- camera, 4x4."""
+    @property
+    def frame(self) -> str: ...
+    @property
+    def damping(self) -> float: ...
+    @property
+    def singular_region(self) -> float: ...
+    @property
+    def max_joint_speed(self) -> _FloatArray | None: ...
+
+def joint_velocities(
+    twist: _ArrayLike,
+    eMc: _ArrayLike,
+    jacobian: _ArrayLike,
+    frame: str = "end_effector",
+    bRe: _ArrayLike | None = None,
+    damping: float = 0.0,
+    singular_region: float = 0.0,
+    max_joint_speed: Union[float, _ArrayLike, None] = None,
+    secondary: _ArrayLike | None = None,
+) -> _FloatArray:
+    """(n,) joint velocities moving the camera with `twist` (JointMapping(...).update(...).qdot)."""
+
 def segment_angle(uv: _ArrayLike, i: int, j: int) -> float: ...
 def segment_angle_jacobian(uv: _ArrayLike, depth: _Depth, i: int, j: int) -> _FloatArray: ...
 def area_scale(uv: _ArrayLike) -> float: ...
@@ -245,11 +323,22 @@ class sim:
         def planar(self) -> bool: ...
         def __len__(self) -> int: ...
 
-    class Gantry:
-        """Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange."""
+    class Robot:
+        """A robot carrying the camera (subclass it and define kinematics(q) -> (T_we, J)).
+        world = base frame; mount = eMc (end-effector <- camera)."""
 
-        @staticmethod
-        def afma6() -> sim.Gantry: ...
+        def __init__(
+            self,
+            q_min: _ArrayLike,
+            q_max: _ArrayLike,
+            qdot_max: _ArrayLike,
+            mount: _ArrayLike,
+            frame: str = "end_effector",
+            damping: float = 0.0,
+            singular_region: float = 0.0,
+        ) -> None: ...
+        @property
+        def dof(self) -> int: ...
         @property
         def q_min(self) -> _FloatArray: ...
         @property
@@ -259,6 +348,26 @@ class sim:
         @property
         def mount(self) -> _FloatArray:
             """end-effector <- camera, 4x4."""
+        @property
+        def frame(self) -> str:
+            """Frame of the Jacobian kinematics() returns: 'end_effector' or 'base'."""
+        @property
+        def damping(self) -> float: ...
+        @property
+        def singular_region(self) -> float: ...
+        def kinematics(self, q: _ArrayLike) -> Tuple[_FloatArray, _FloatArray]:
+            """(T_we (4, 4) world <- end effector, J (6, n) end-effector Jacobian in `frame`)."""
+        def camera(self, q: _ArrayLike) -> _FloatArray: ...
+        def jacobian(self, q: _ArrayLike) -> _FloatArray:
+            """(6, n) camera Jacobian."""
+        def joint_velocity(self, q: _ArrayLike, twist: _ArrayLike) -> _FloatArray: ...
+        def outside_limits(self, q: _ArrayLike) -> int: ...
+
+    class Gantry(Robot):
+        """Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange."""
+
+        @staticmethod
+        def afma6() -> sim.Gantry: ...
         @property
         def coupling(self) -> float: ...
         @property
@@ -270,11 +379,7 @@ class sim:
             qdot_max: _ArrayLike | None = None,
         ) -> sim.Gantry: ...
         def end_effector(self, q: _ArrayLike) -> _FloatArray: ...
-        def camera(self, q: _ArrayLike) -> _FloatArray: ...
-        def jacobian(self, q: _ArrayLike) -> _FloatArray: ...
-        def joint_velocity(self, q: _ArrayLike, twist: _ArrayLike) -> _FloatArray: ...
         def manipulability(self, q: _ArrayLike) -> float: ...
-        def outside_limits(self, q: _ArrayLike) -> int: ...
 
     @staticmethod
     def _run(
@@ -283,7 +388,7 @@ class sim:
         target: sim.Target,
         start: _ArrayLike,
         goal: _ArrayLike,
-        robot: sim.Gantry | None = None,
+        robot: sim.Robot | None = None,
         duration: float = 10.0,
         noise: float = 0.0,
         latency: int = 0,

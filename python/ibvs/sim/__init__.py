@@ -1,4 +1,4 @@
-"""ibvs.sim: closed-loop simulation of a servo on a free-flying camera or an Afma6-like gantry.
+"""ibvs.sim: closed-loop simulation of a servo on a free-flying camera, an Afma6-like gantry or any arm.
 
 The whole loop runs in C++ (one call per episode); this module configures it and
 returns the history as numpy arrays.
@@ -12,7 +12,8 @@ returns the history as numpy arrays.
     result.animate("run.gif", speed=2)   # camera view and 3D scene (ibvs.plots.animate)
 
 Frames and conventions are those of ibvs (camera x right, y down, z forward;
-twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera.
+twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera;
+a robot's base frame is the world frame.
 """
 
 from __future__ import annotations
@@ -26,9 +27,11 @@ from .._core import Layout, PartitionedServo, Servo
 from .._core import sim as _sim
 from . import cases
 from .poses import pose, pose_deg, rotation
+from .urdf import UrdfRobot, example_robot_urdf
 
 Camera = _sim.Camera
 Target = _sim.Target
+Robot = _sim.Robot
 Gantry = _sim.Gantry
 
 __all__ = [
@@ -37,9 +40,12 @@ __all__ = [
     "History",
     "Metrics",
     "Result",
+    "Robot",
     "RunStatus",
     "Target",
+    "UrdfRobot",
     "cases",
+    "example_robot_urdf",
     "pose",
     "pose_deg",
     "rotation",
@@ -97,8 +103,9 @@ class History:
     PartitionedServo the Cartesian error, M = 2N); error_norm (K,);
     sigma_min (K,) smallest singular value of the servo's interaction matrix (for a
     PartitionedServo: of the four (Tx, Ty, wx, wy) columns of its Cartesian Jacobian).
-    Gantry only (else None): q (K, 6), qdot (K, 6) joint velocity applied after the frame,
-    manipulability (K,) |det| of the robot's camera Jacobian (= |cos q5|).
+    With a robot (else None): q (K, n), qdot (K, n) joint velocity applied after the frame,
+    manipulability (K,) the product of the singular values of the robot's camera Jacobian
+    (|det J| = |cos q5| on the gantry).
     """
 
     time: np.ndarray
@@ -199,7 +206,7 @@ def run(
     target: Target,
     start,
     goal,
-    robot: Optional[Gantry] = None,
+    robot: Optional[Robot] = None,
     duration: float = 10.0,
     noise: float = 0.0,
     latency: int = 0,
@@ -220,9 +227,12 @@ def run(
         ibvs.PartitionedServo. The episode runs a copy with the same options, with its
         diagnostics on (the history records sigma_min); the object itself is not modified.
     camera, target: a Camera and a Target with as many points as the servo's layout.
-    start, goal: 4x4 world <- camera poses; with robot (a Gantry), start is 6 joint
-        positions and goal 6 joint positions or a 4x4 pose. The desired features are
-        what the camera measures at the goal.
+    start, goal: 4x4 world <- camera poses; with a robot (an ibvs.sim.Robot: a Gantry, a
+        UrdfRobot or any subclass), start is its n joint positions and goal n joint positions
+        or a 4x4 world <- camera pose. The desired features are what the camera measures at
+        the goal. The robot's JointMapping turns each twist into joint velocities (scaled to
+        its speed limits). The C++ gantry runs without the GIL; a Python robot (UrdfRobot)
+        is called once per frame with the GIL held.
     duration: seconds; the episode has round(duration * camera.fps) frames.
     noise: std of Gaussian noise on the measured points, in measurement units (pixels;
         normalised units for Camera.normalized).
@@ -246,8 +256,8 @@ def run(
         growing without bound towards the border; 0 (default) = off.
     boundary_gain: >= 0, 1/s, weight of that retreat.
     """
-    if robot is not None and not isinstance(robot, Gantry):
-        raise TypeError(f"robot must be an ibvs.sim.Gantry or None, got {type(robot).__name__}")
+    if robot is not None and not isinstance(robot, Robot):
+        raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be an ibvs.sim.Camera, got {type(camera).__name__}")
     if not isinstance(target, Target):

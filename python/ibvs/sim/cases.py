@@ -26,12 +26,12 @@ import numpy as np
 from .._core import sim as _sim
 from .poses import pose
 
-__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "solve_joints", "free_cases", "all_cases"]
+__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "ARMS", "solve_joints", "free_cases", "all_cases"]
 
 
 @dataclass(frozen=True)
 class Case:
-    """A start/goal set-up. start/goal are 4x4 world <- camera poses, or joint vectors (6,) with a robot."""
+    """A start/goal set-up. start/goal are 4x4 world <- camera poses, or joint vectors (n,) with a robot."""
 
     name: str
     description: str
@@ -39,7 +39,7 @@ class Case:
     target: _sim.Target
     start: np.ndarray
     goal: np.ndarray
-    robot: Optional[_sim.Gantry] = None
+    robot: Optional[_sim.Robot] = None
     duration: float = 10.0
     extra: dict = field(default_factory=dict)
 
@@ -137,17 +137,18 @@ def _rotation_vector(R: np.ndarray) -> np.ndarray:
     return w * (0.5 if a < 1e-9 else a / (2 * s))
 
 
-def solve_joints(robot: _sim.Gantry, camera_pose: np.ndarray, q0, iterations: int = 50) -> np.ndarray:
+def solve_joints(robot: _sim.Robot, camera_pose: np.ndarray, q0, iterations: int = 50) -> np.ndarray:
     """Joint positions placing the camera at camera_pose (4x4, world <- camera), by Newton
-    steps on the robot's camera Jacobian from q0. Raises ValueError if it does not converge
-    or the solution is outside the joint limits."""
+    steps on the robot's camera Jacobian from q0 (minimum-norm steps for a redundant arm).
+    Raises ValueError if it does not converge or the solution is outside the joint limits."""
     q = np.array(q0, dtype=float)
     for _ in range(iterations):
         D = np.linalg.inv(robot.camera(q)) @ camera_pose
         e = np.r_[D[:3, 3], _rotation_vector(D[:3, :3])]
         if np.linalg.norm(e) < 1e-13:
             break
-        q = q + np.linalg.solve(robot.jacobian(q), e)
+        J = robot.jacobian(q)
+        q = q + (np.linalg.solve(J, e) if J.shape[1] == 6 else np.linalg.lstsq(J, e, rcond=None)[0])
     if np.abs(robot.camera(q) - camera_pose).max() > 1e-9:
         raise ValueError("camera_pose: inverse kinematics did not converge")
     if robot.outside_limits(q) >= 0:
@@ -181,6 +182,42 @@ def gantry_joint_limit() -> Case:
     """A gantry start from which polar and stacked IBVS hit joint 5's lower limit (Cartesian converges)."""
     return _gantry_case("gantry_joint_limit", "gantry start leading IBVS-P into a joint limit",
                         GANTRY_JOINT_LIMIT_T, GANTRY_JOINT_LIMIT_R, 15.0)
+
+
+# Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install "ibvs[robots]"): name ->
+# (goal joints, eMc). Goals: the Panda's "default" posture of its SRDF (its hand pointing down,
+# joint 4 bent), the UR5 elbow up with the tool pointing down (q3 = pi/2 keeps it off the elbow
+# singularity, q5 = -pi/2 off the wrist one); both well inside every joint limit, smallest
+# singular value of the camera Jacobian 0.22. The camera sits 5 cm off the flange axis, 4 cm
+# out, tilted by (0.1, -0.2, 0.3) rad (rxyz).
+ARMS = {
+    "panda": ((0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4), ((0.05, -0.03, 0.04), (0.1, -0.2, 0.3))),
+    "ur5": ((0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0), ((0.05, -0.03, 0.04), (0.1, -0.2, 0.3))),
+}
+ARM_DESIRED_DEPTH = 0.5
+
+
+def arm_general_motion(name: str = "panda") -> Case:
+    """General motion with a camera on an arm of example-robot-data ("panda": Franka Panda, 7 joints,
+    flange frame panda_hand; "ur5": Universal Robots UR5, 6 joints, flange frame tool0), from its URDF
+    with Pinocchio (ibvs.sim.UrdfRobot; pip install "ibvs[robots]").
+
+    Goal: ARMS[name] joints, the 10 cm square target centred 0.5 m in front of the camera. Start: the
+    camera moved by pose(GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R) in its own frame (as on the
+    gantry), as joints from minimum-norm Newton steps from the goal. Camera: Camera.afma6().
+    """
+    from .urdf import EXAMPLE_ROBOTS, UrdfRobot, example_robot_urdf
+
+    if name not in ARMS:
+        raise ValueError(f"name must be one of {sorted(ARMS)}, got {name!r}")
+    q_goal, (t, r) = ARMS[name]
+    robot = UrdfRobot(example_robot_urdf(name), EXAMPLE_ROBOTS[name][1], pose(t=t, r=r))
+    goal = np.array(q_goal)
+    goal_pose = robot.camera(goal)
+    target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, ARM_DESIRED_DEPTH)))
+    start = solve_joints(robot, goal_pose @ pose(t=GANTRY_GENERAL_MOTION_T, r=GANTRY_GENERAL_MOTION_R), goal)
+    return Case(f"{name}_general_motion", f"general motion with a camera on the {name} arm (URDF, Pinocchio)",
+                _sim.Camera.afma6(), target, start, goal, robot, 15.0)
 
 
 def free_cases() -> list[Case]:
