@@ -6,6 +6,7 @@
 namespace py = pybind11;
 
 void bind_core(py::module_& m);  // bind_core.cpp
+void bind_camera(py::module_& m);  // bind_camera.cpp
 void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
@@ -14,6 +15,7 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
   m.attr("__version__") = IBVS_VERSION;
   bind_core(m);
+  bind_camera(m);
   bind_sim(m);
   bind_partitioned(m);
   bind_robot(m);

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ._core import (
     AdaptiveGain,
+    CameraModel,
     JointMapping,
     JointMappingResult,
     Layout,
@@ -40,6 +41,7 @@ from ._core import (
 
 __all__ = [
     "AdaptiveGain",
+    "CameraModel",
     "JointMapping",
     "JointMappingResult",
     "Layout",

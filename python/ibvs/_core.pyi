@@ -6,6 +6,7 @@ tests/python/test_stub.py checks that these names, members and parameter names a
 from __future__ import annotations
 
 import enum
+import os
 from typing import Any, Sequence, Tuple, Union
 
 import numpy as np
@@ -77,6 +78,79 @@ class AdaptiveGain:
     @property
     def slope_at_zero(self) -> float: ...
     def __call__(self, x: Union[float, _ArrayLike]) -> Union[float, _FloatArray]: ...
+
+class CameraModel:
+    """Pinhole camera with lens distortion: normalised image coordinates (x, y) = (X/Z, Y/Z) in the
+    camera frame (x right, y down, z forward) <-> pixels u = u0 + px xd, v = v0 + py yd.
+    distortion: "none", "visp" (kud, kdu), "plumb_bob" (k1, k2, p1, p2, k3), "equidistant" (k1..k4).
+    Also ibvs.sim.Camera (the simulator's camera)."""
+
+    def __init__(
+        self,
+        px: float,
+        py: float,
+        u0: float,
+        v0: float,
+        kud: float = 0.0,
+        kdu: float = 0.0,
+        width: float = 640.0,
+        height: float = 480.0,
+        fps: float = 60.0,
+    ) -> None: ...
+    @staticmethod
+    def from_visp(
+        px: float, py: float, u0: float, v0: float, kud: float, kdu: float, width: float, height: float,
+        fps: float = 60.0,
+    ) -> CameraModel: ...
+    @staticmethod
+    def from_opencv(
+        K: _ArrayLike, dist: _ArrayLike | None, width: float, height: float, fisheye: bool = False, fps: float = 60.0
+    ) -> CameraModel:
+        """K (3, 3) pixels; dist (k1, k2, p1, p2[, k3]) or with fisheye (k1, k2, k3, k4)."""
+    @staticmethod
+    def from_yaml(path: Union[str, os.PathLike[str]], fps: float = 60.0) -> CameraModel:
+        """ROS camera_info or OpenCV calibration file (needs ibvs[vision])."""
+    @staticmethod
+    def normalized(bounds: float = 0.3, fps: float = 60.0) -> CameraModel: ...
+    @staticmethod
+    def afma6() -> CameraModel: ...
+    @property
+    def px(self) -> float:
+        """Focal length along u, pixels (OpenCV fx)."""
+    @property
+    def py(self) -> float: ...
+    @property
+    def u0(self) -> float:
+        """Principal point, pixels (OpenCV cx)."""
+    @property
+    def v0(self) -> float: ...
+    @property
+    def distortion(self) -> str: ...
+    @property
+    def coefficients(self) -> Tuple[float, ...]: ...
+    @property
+    def K(self) -> _FloatArray:
+        """(3, 3) camera matrix, pixels."""
+    @property
+    def width(self) -> float: ...
+    @property
+    def height(self) -> float: ...
+    @property
+    def bounds(self) -> Tuple[float, float, float, float]:
+        """(u_min, u_max, v_min, v_max), pixels."""
+    @property
+    def fps(self) -> float: ...
+    @property
+    def max_radius(self) -> float:
+        """Normalised radius up to which the distortion is one-to-one (inf: everywhere)."""
+    def project(self, uv: _ArrayLike, invalid: str = "raise") -> _FloatArray:
+        """Normalised (N, 2), (N, 1, 2) or (2,) -> pixels of the same shape."""
+    def normalize(self, pixels: _ArrayLike, invalid: str = "raise") -> _FloatArray:
+        """Pixels (N, 2), (N, 1, 2) or (2,) -> normalised of the same shape."""
+    def contains(self, pixels: _ArrayLike) -> Union[bool, npt.NDArray[np.bool_]]: ...
+    def to_opencv(self) -> Tuple[_FloatArray, _FloatArray]:
+        """(K, dist) for OpenCV (cv2.fisheye for equidistant)."""
+    def __eq__(self, other: object) -> bool: ...
 
 class ServoResult:
     @property

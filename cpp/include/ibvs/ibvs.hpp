@@ -3,6 +3,7 @@
 // Conventions are stated once, in ibvs/features.hpp.
 #pragma once
 
+#include "ibvs/camera_model.hpp"
 #include "ibvs/features.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/pinv.hpp"

@@ -1,0 +1,200 @@
+// Bindings of ibvs::CameraModel (ibvs.CameraModel, also ibvs.sim.Camera).
+// Argument conversion only; the model is cpp/src/camera_model.cpp, the
+// calibration-file reader python/ibvs/_calibration.py.
+#include "convert.hpp"
+#include "ibvs/camera_model.hpp"
+
+#include <pybind11/operators.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <string>
+
+namespace py = pybind11;
+using namespace ibvs;
+using namespace ibvs::py_convert;
+
+namespace {
+
+// (N, 2), OpenCV's (N, 1, 2) or one point (2,): the 2 x N view and the shape to give back.
+struct PointArgs {
+  CArray a;
+  Eigen::Map<const Points> p;
+};
+
+PointArgs point_args(py::handle obj, const char* name) {
+  CArray a = as_array(obj, name);
+  const bool one = a.ndim() == 1 && a.shape(0) == 2;
+  if (!one && !((a.ndim() == 2 && a.shape(1) == 2) || (a.ndim() == 3 && a.shape(1) == 1 && a.shape(2) == 2)))
+    throw py::value_error(std::string(name) + " must have shape (N, 2), (N, 1, 2) or (2,), got " + shape_of(a));
+  const Eigen::Index n = one ? 1 : static_cast<Eigen::Index>(a.shape(0));
+  return {a, Eigen::Map<const Points>(a.data(), 2, n)};
+}
+
+std::string pair(double a, double b) { return "(" + std::to_string(a) + ", " + std::to_string(b) + ")"; }
+
+// Maps every point with f (project or normalize); a point f refuses raises a ValueError naming it,
+// or becomes NaN with invalid="nan".
+template <class F>
+py::array_t<double> map_points(py::handle obj, const char* name, const std::string& invalid, F f,
+                               const std::string& why) {
+  if (invalid != "raise" && invalid != "nan")
+    throw py::value_error("invalid must be 'raise' or 'nan', got '" + invalid + "'");
+  const PointArgs in = point_args(obj, name);
+  py::array_t<double> out(std::vector<py::ssize_t>(in.a.shape(), in.a.shape() + in.a.ndim()));
+  Eigen::Map<Points> o(out.mutable_data(), 2, in.p.cols());
+  Eigen::Vector2d q;
+  for (Eigen::Index i = 0; i < in.p.cols(); ++i) {
+    if (!f(in.p(0, i), in.p(1, i), q) && invalid == "raise") {
+      const double x = in.p(0, i), y = in.p(1, i);
+      const std::string which = in.a.ndim() == 1 ? std::string(name) : std::string(name) + "[" + std::to_string(i) + "]";
+      if (!std::isfinite(x) || !std::isfinite(y)) throw py::value_error(which + " is not finite");
+      throw py::value_error(which + " = " + pair(x, y) + why);
+    }
+    o.col(i) = q;
+  }
+  return out;
+}
+
+py::object mask(const CameraModel& c, py::handle obj) {
+  const PointArgs in = point_args(obj, "pixels");
+  py::array_t<bool> out(in.p.cols());
+  for (Eigen::Index i = 0; i < in.p.cols(); ++i) out.mutable_at(i) = c.contains(in.p(0, i), in.p(1, i));
+  if (in.a.ndim() == 1) return py::bool_(out.at(0));
+  return std::move(out);
+}
+
+std::string radius_note(const CameraModel& c) {
+  if (!std::isfinite(c.max_radius())) return "";
+  return " (the " + std::string(to_string(c.distortion())) + " model is one-to-one only within a normalised radius of " +
+         std::to_string(c.max_radius()) + ", " + std::to_string(std::atan(c.max_radius()) * 180.0 / pi) +
+         " degrees off-axis)";
+}
+
+Eigen::Matrix3d k_arg(py::handle obj) {
+  const CArray a = as_array(obj, "K");
+  if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
+    throw py::value_error("K must have shape (3, 3), got " + shape_of(a));
+  return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data());
+}
+
+Eigen::VectorXd dist_arg(py::handle obj) {
+  if (obj.is_none()) return Eigen::VectorXd(0);
+  const CArray a = as_array(obj, "dist");
+  // OpenCV hands out (n,), (1, n) or (n, 1): any vector shape.
+  py::ssize_t big = 0;
+  for (py::ssize_t i = 0; i < a.ndim(); ++i)
+    if (a.shape(i) != 1) ++big;
+  if (big > 1) throw py::value_error("dist must be a vector of coefficients, got shape " + shape_of(a));
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), a.size());
+}
+
+}  // namespace
+
+void bind_camera(py::module_& m) {
+  py::class_<CameraModel>(m, "CameraModel", R"(Pinhole camera with lens distortion: normalised image coordinates <-> pixels.
+
+Normalised coordinates (x, y) = (X/Z, Y/Z) of a point (X, Y, Z) in the camera frame (x right,
+y down, z forward); pixels u = u0 + px xd, v = v0 + py yd with (xd, yd) the distorted normalised
+coordinates. Distortion models: "none"; "visp" (ViSP's kud for project, kdu for normalize);
+"plumb_bob" (OpenCV / ROS k1, k2, p1, p2, k3); "equidistant" (OpenCV fisheye / ROS, k1..k4).
+normalize() inverts plumb_bob and equidistant by Newton's method to < 1e-9 px. Points beyond
+max_radius (where the distortion stops being one-to-one) are refused.
+
+CameraModel(px, py, u0, v0, kud=0, kdu=0, width=640, height=480, fps=60) is ViSP's form (the
+simulator's camera, ibvs.sim.Camera); see also from_opencv, from_yaml, from_visp, normalized.
+The sensor spans [0, width] x [0, height] pixels; fps is the frame rate (the simulator's control
+period is 1 / fps).)")
+      .def(py::init(&CameraModel::from_visp), py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"),
+           py::arg("kud") = 0.0, py::arg("kdu") = 0.0, py::arg("width") = 640.0, py::arg("height") = 480.0,
+           py::arg("fps") = 60.0)
+      .def_static("from_visp", &CameraModel::from_visp, py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"),
+                  py::arg("kud"), py::arg("kdu"), py::arg("width"), py::arg("height"), py::arg("fps") = 60.0,
+                  R"(ViSP's vpCameraParameters with distortion: focal lengths px, py and principal point u0, v0
+(pixels); project with kud, normalize with kdu (separate calibrations: the round trip is close,
+not exact). kud = kdu = 0 gives distortion "none".)")
+      .def_static(
+          "from_opencv",
+          [](py::handle K, py::handle dist, double width, double height, bool fisheye, double fps) {
+            return CameraModel::from_opencv(k_arg(K), dist_arg(dist), width, height, fisheye, fps);
+          },
+          py::arg("K"), py::arg("dist"), py::arg("width"), py::arg("height"), py::arg("fisheye") = false,
+          py::arg("fps") = 60.0,
+          R"(From OpenCV's camera matrix K (3, 3) = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (pixels) and
+distortion coefficients dist: (k1, k2, p1, p2[, k3]) as cv2.calibrateCamera gives them
+("plumb_bob"; longer OpenCV vectors are accepted when their extra terms are 0), or with
+fisheye=True the 4 of cv2.fisheye (k1, k2, k3, k4, "equidistant"). None or all zeros: no
+distortion. width, height: image size in pixels.)")
+      .def_static(
+          "from_yaml",
+          [](py::handle path, double fps) {
+            const py::dict d = py::module_::import("ibvs._calibration").attr("read")(path);
+            return CameraModel::from_opencv(k_arg(d["K"]), dist_arg(d["dist"]), d["width"].cast<double>(),
+                                            d["height"].cast<double>(), d["fisheye"].cast<bool>(), fps);
+          },
+          py::arg("path"), py::arg("fps") = 60.0,
+          R"(From a calibration file: a ROS camera_info YAML (camera_matrix, distortion_model,
+distortion_coefficients, image_width, image_height) or an OpenCV calibration file written by
+cv::FileStorage (YAML, XML or JSON; camera_matrix, distortion_coefficients, image_width,
+image_height, optional fisheye_model). Read with OpenCV's cv2.FileStorage: needs
+pip install "ibvs[vision]".)")
+      .def_static("normalized", &CameraModel::normalized, py::arg("bounds") = 0.3, py::arg("fps") = 60.0,
+                  "Paper Table I: unit focal length (pixels = normalised coordinates), sensor +-bounds, no distortion.")
+      .def_static("afma6", &CameraModel::afma6,
+                  "Paper Section III-B / ViSP's Afma6 camera: 640x480, px 1090.6, py 1090.0, u0 310.1, v0 260.8, "
+                  "kud -0.2114, kdu 0.2217, 60 fps.")
+      .def_property_readonly("px", &CameraModel::px, "Focal length along u, pixels (OpenCV fx).")
+      .def_property_readonly("py", &CameraModel::py, "Focal length along v, pixels (OpenCV fy).")
+      .def_property_readonly("u0", &CameraModel::u0, "Principal point u, pixels (OpenCV cx).")
+      .def_property_readonly("v0", &CameraModel::v0, "Principal point v, pixels (OpenCV cy).")
+      .def_property_readonly("distortion", [](const CameraModel& c) { return to_string(c.distortion()); },
+                             "'none', 'visp', 'plumb_bob' or 'equidistant'.")
+      .def_property_readonly(
+          "coefficients",
+          [](const CameraModel& c) {
+            const Eigen::VectorXd k = c.coefficients();
+            return py::tuple(py::cast(std::vector<double>(k.data(), k.data() + k.size())));
+          },
+          "The distortion coefficients: () none, (kud, kdu) visp, (k1, k2, p1, p2, k3) plumb_bob, "
+          "(k1, k2, k3, k4) equidistant.")
+      .def_property_readonly("K", &CameraModel::K, "OpenCV's camera matrix (3, 3) [[px, 0, u0], [0, py, v0], [0, 0, 1]].")
+      .def_property_readonly("width", &CameraModel::width, "u_max - u_min, pixels.")
+      .def_property_readonly("height", &CameraModel::height, "v_max - v_min, pixels.")
+      .def_property_readonly(
+          "bounds", [](const CameraModel& c) { return py::make_tuple(c.u_min(), c.u_max(), c.v_min(), c.v_max()); },
+          "(u_min, u_max, v_min, v_max), pixels (normalised units for CameraModel.normalized).")
+      .def_property_readonly("fps", &CameraModel::fps, "Frames per second.")
+      .def_property_readonly("max_radius", &CameraModel::max_radius,
+                             "Normalised radius |(x, y)| up to which the distortion is one-to-one (inf: everywhere).")
+      .def(
+          "project",
+          [](const CameraModel& c, py::handle uv, const std::string& invalid) {
+            return map_points(
+                uv, "uv", invalid, [&](double x, double y, Eigen::Vector2d& q) { return c.project(x, y, q); },
+                " lies beyond the radius where the distortion stops being one-to-one" + radius_note(c));
+          },
+          py::arg("uv"), py::arg("invalid") = "raise",
+          R"(Normalised points -> pixels (distorted). uv: (N, 2), (N, 1, 2) or (2,); the result has its shape.
+A point at or beyond max_radius raises ValueError naming it, or becomes NaN with invalid="nan".)")
+      .def(
+          "normalize",
+          [](const CameraModel& c, py::handle pixels, const std::string& invalid) {
+            return map_points(
+                pixels, "pixels", invalid, [&](double u, double v, Eigen::Vector2d& q) { return c.normalize(u, v, q); },
+                " has no inverse in this camera model" + radius_note(c));
+          },
+          py::arg("pixels"), py::arg("invalid") = "raise",
+          R"(Pixels -> normalised points (undistorted): (N, 2), (N, 1, 2) or (2,); the result has its shape.
+A pixel without an inverse (beyond the image of max_radius) raises ValueError naming it, or becomes
+NaN with invalid="nan".)")
+      .def("contains", &mask, py::arg("pixels"),
+           "Whether each pixel lies inside the sensor bounds (inclusive): bool (N,), or a bool for one point (2,).")
+      .def(
+          "to_opencv",
+          [](const CameraModel& c) { return py::make_tuple(c.K(), c.opencv_coefficients()); },
+          R"((K, dist) for OpenCV: plumb_bob its 5 coefficients, equidistant its 4 (use cv2.fisheye),
+none 5 zeros; visp (kud, 0, 0, 0, 0), which is exact for project() (OpenCV's undistortion then
+inverts kud exactly, where normalize() applies ViSP's separately calibrated kdu).)")
+      .def(py::self == py::self)
+      .def("__repr__", &CameraModel::describe);
+}

@@ -1,0 +1,437 @@
+#include "ibvs/camera_model.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+namespace ibvs {
+
+const char* to_string(Distortion d) noexcept {
+  switch (d) {
+    case Distortion::none: return "none";
+    case Distortion::visp: return "visp";
+    case Distortion::plumb_bob: return "plumb_bob";
+    case Distortion::equidistant: return "equidistant";
+  }
+  return "unknown";
+}
+
+namespace {
+
+constexpr double inf = std::numeric_limits<double>::infinity();
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+// normalize() accepts a Newton solution whose residual is below this many pixels
+// (rounding leaves ~1e-13 px at a focal length of 1000 px; the contract is 1e-6 px).
+constexpr double newton_tolerance_px = 1e-9;
+
+[[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("ibvs: " + what); }
+
+std::string num(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+// Smallest s in (0, cap] with p(s) = c[0] + c[1] s + ... + c[d] s^d = 0 (c[0] = 1 > 0),
+// or +inf when p > 0 on the whole range. Two witnesses: the roots t = 1/s of the
+// reversed, monic polynomial t^d + c[1] t^(d-1) + ... + c[d] (the eigenvalues of its
+// companion matrix, whose entries are the coefficients: well scaled), kept when p
+// nearly vanishes there (a nearly real pair, a tangency, counts: it only shrinks the
+// domain); and a geometric scan of p from 1e-8 up, which cannot be fooled by
+// coefficients spanning hundreds of orders of magnitude. Bisection pins a sign change.
+double smallest_positive_root(const std::array<double, 5>& c, int degree, double cap) {
+  const auto p = [&](double s) {
+    double v = 0.0;
+    for (int i = degree; i >= 0; --i) v = v * s + c[static_cast<std::size_t>(i)];
+    return v;
+  };
+  const auto scale = [&](double s) {  // size of the terms p sums, for "nearly vanishes"
+    double v = 0.0, si = 1.0;
+    for (int i = 0; i <= degree; ++i, si *= s) v += std::abs(c[static_cast<std::size_t>(i)]) * si;
+    return v;
+  };
+  double best = inf;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(degree, degree);
+  for (int i = 0; i < degree; ++i) C(0, i) = -c[static_cast<std::size_t>(i + 1)];
+  for (int i = 1; i < degree; ++i) C(i, i - 1) = 1.0;
+  const Eigen::EigenSolver<Eigen::MatrixXd> es(C, false);
+  for (Eigen::Index i = 0; i < es.eigenvalues().size(); ++i) {
+    const std::complex<double> t = es.eigenvalues()(i);
+    if (!(t.real() > 0.0) || std::abs(t.imag()) > 1e-6 * std::abs(t)) continue;
+    const double s = 1.0 / t.real();
+    if (s <= cap && std::abs(p(s)) <= 1e-9 * scale(s)) best = std::min(best, s);
+  }
+  // The first sign change on a 1 % geometric grid below that; bisect it (or polish the eigenvalue's root).
+  double lo = 0.0, hi = best;
+  for (double s = 1e-8; s < std::min(best, cap); s *= 1.01) {
+    if (!(p(s) > 0.0)) {
+      hi = s;
+      break;
+    }
+    lo = s;
+  }
+  if (!std::isfinite(hi)) return inf;
+  if (!(p(hi) > 0.0))
+    for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (p(mid) > 0.0 ? lo : hi) = mid;
+    }
+  return hi;
+}
+
+// Root of f(r) = target for f increasing on [0, hi) with f(0) = 0 <= target:
+// Newton's steps kept inside a shrinking bracket (bisection when one leaves it).
+template <class F, class DF>
+double bracketed_newton(F f, DF df, double target, double hi) noexcept {
+  double lo = 0.0;
+  if (!std::isfinite(hi)) {  // grow an upper bracket
+    hi = std::max(1.0, 2.0 * target);
+    for (int i = 0; i < 200 && f(hi) < target; ++i) hi *= 2.0;
+  }
+  double r = std::min(target, 0.5 * (lo + hi));
+  for (int it = 0; it < 100; ++it) {
+    const double h = f(r) - target;
+    if (h == 0.0) return r;
+    if (h < 0.0) lo = r;
+    else hi = r;
+    const double d = df(r);
+    double next = d > 0.0 ? r - h / d : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - r) <= 1e-16 * std::max(1.0, r)) return next;
+    r = next;
+  }
+  return r;
+}
+
+// Determinant of the Jacobian of the plumb_bob map (x, y) -> (xd, yd) (k = k1, k2, p1, p2, k3).
+double plumb_bob_det(const std::array<double, 5>& k, double x, double y) noexcept {
+  const double r2 = x * x + y * y, R = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]));
+  const double dR = k[0] + r2 * (2.0 * k[1] + r2 * 3.0 * k[4]);
+  const double a = R + 2.0 * x * x * dR + 2.0 * k[2] * y + 6.0 * k[3] * x;
+  const double b = 2.0 * x * y * dR + 2.0 * k[2] * x + 2.0 * k[3] * y;
+  const double d = R + 2.0 * y * y * dR + 6.0 * k[2] * y + 2.0 * k[3] * x;
+  return a * d - b * b;
+}
+
+}  // namespace
+
+CameraModel CameraModel::pinhole(double px, double py, double u0, double v0, double width, double height,
+                                 double fps) {
+  return from_visp(px, py, u0, v0, 0.0, 0.0, width, height, fps);
+}
+
+CameraModel CameraModel::from_visp(double px, double py, double u0, double v0, double kud, double kdu, double width,
+                                   double height, double fps) {
+  CameraModel c;
+  c.px_ = px;
+  c.py_ = py;
+  c.u0_ = u0;
+  c.v0_ = v0;
+  c.distortion_ = kud == 0.0 && kdu == 0.0 ? Distortion::none : Distortion::visp;
+  c.k_ = {kud, kdu, 0.0, 0.0, 0.0};
+  if (c.distortion_ == Distortion::none) c.k_ = {};
+  c.u_min_ = c.v_min_ = 0.0;
+  c.u_max_ = width;
+  c.v_max_ = height;
+  c.fps_ = fps;
+  if (!(std::isfinite(width) && width > 0.0)) fail("width must be finite and > 0, got " + num(width));
+  if (!(std::isfinite(height) && height > 0.0)) fail("height must be finite and > 0, got " + num(height));
+  if (!std::isfinite(kud)) fail("kud must be finite, got " + num(kud));
+  if (!std::isfinite(kdu)) fail("kdu must be finite, got " + num(kdu));
+  c.validate();
+  c.set_domain();
+  return c;
+}
+
+CameraModel CameraModel::from_opencv(const Eigen::Matrix3d& K, const Eigen::Ref<const Eigen::VectorXd>& dist,
+                                     double width, double height, bool fisheye, double fps) {
+  if (!K.allFinite()) fail("K must be finite");
+  if (K(0, 1) != 0.0) fail("K: skew K[0][1] must be 0 (skewed pixels are not supported), got " + num(K(0, 1)));
+  if (K(1, 0) != 0.0 || K(2, 0) != 0.0 || K(2, 1) != 0.0 || K(2, 2) != 1.0)
+    fail("K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]");
+  if (!dist.allFinite()) fail("dist must be finite");
+  CameraModel c = pinhole(K(0, 0), K(1, 1), K(0, 2), K(1, 2), width, height, fps);
+  const Eigen::Index n = dist.size();
+  if (fisheye) {
+    if (n != 4) fail("dist: the fisheye (equidistant) model takes 4 coefficients (k1, k2, k3, k4), got " + std::to_string(n));
+    c.distortion_ = Distortion::equidistant;
+    c.k_ = {dist(0), dist(1), dist(2), dist(3), 0.0};
+  } else {
+    if (n != 0 && n != 4 && n != 5 && n != 8 && n != 12 && n != 14)
+      fail("dist: plumb_bob takes (k1, k2, p1, p2[, k3]) (OpenCV's 4, 5, 8, 12 or 14 entries), got " +
+           std::to_string(n));
+    for (Eigen::Index i = 5; i < n; ++i)
+      if (dist(i) != 0.0)
+        fail("dist[" + std::to_string(i) + "] = " + num(dist(i)) +
+             ": only (k1, k2, p1, p2, k3) are supported (OpenCV's rational, thin-prism and tilt terms must be 0)");
+    for (Eigen::Index i = 0; i < std::min<Eigen::Index>(n, 5); ++i) c.k_[static_cast<std::size_t>(i)] = dist(i);
+    const bool any = std::any_of(c.k_.begin(), c.k_.end(), [](double k) { return k != 0.0; });
+    c.distortion_ = any ? Distortion::plumb_bob : Distortion::none;
+  }
+  c.set_domain();
+  return c;
+}
+
+CameraModel CameraModel::normalized(double bounds, double fps) {
+  if (!(std::isfinite(bounds) && bounds > 0.0)) fail("bounds must be finite and > 0, got " + num(bounds));
+  CameraModel c;
+  c.u_min_ = c.v_min_ = -bounds;
+  c.u_max_ = c.v_max_ = bounds;
+  c.fps_ = fps;
+  c.validate();
+  return c;
+}
+
+CameraModel CameraModel::afma6() { return from_visp(1090.6, 1090.0, 310.1, 260.8, -0.2114, 0.2217, 640.0, 480.0); }
+
+Eigen::VectorXd CameraModel::coefficients() const {
+  switch (distortion_) {
+    case Distortion::none: return Eigen::VectorXd(0);
+    case Distortion::visp: return Eigen::Vector2d(k_[0], k_[1]);
+    case Distortion::plumb_bob: return Eigen::Map<const Eigen::VectorXd>(k_.data(), 5);
+    case Distortion::equidistant: return Eigen::Map<const Eigen::VectorXd>(k_.data(), 4);
+  }
+  return {};
+}
+
+Eigen::VectorXd CameraModel::opencv_coefficients() const {
+  if (distortion_ == Distortion::equidistant) return coefficients();
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(5);
+  if (distortion_ == Distortion::plumb_bob) d = coefficients();
+  if (distortion_ == Distortion::visp) d(0) = k_[0];
+  return d;
+}
+
+Eigen::Matrix3d CameraModel::K() const noexcept {
+  Eigen::Matrix3d K;
+  K << px_, 0.0, u0_, 0.0, py_, v0_, 0.0, 0.0, 1.0;
+  return K;
+}
+
+void CameraModel::validate() const {
+  if (!(std::isfinite(px_) && px_ > 0.0)) fail("camera px (fx) must be finite and > 0, got " + num(px_));
+  if (!(std::isfinite(py_) && py_ > 0.0)) fail("camera py (fy) must be finite and > 0, got " + num(py_));
+  if (!(std::isfinite(u0_) && std::isfinite(v0_))) fail("camera u0, v0 (cx, cy) must be finite");
+  for (double k : k_)
+    if (!std::isfinite(k)) fail("camera distortion coefficients must be finite");
+  if (!(std::isfinite(u_min_) && std::isfinite(u_max_) && u_min_ < u_max_))
+    fail("camera bounds need u_min < u_max (width > 0)");
+  if (!(std::isfinite(v_min_) && std::isfinite(v_max_) && v_min_ < v_max_))
+    fail("camera bounds need v_min < v_max (height > 0)");
+  if (!(std::isfinite(fps_) && fps_ > 0.0)) fail("camera fps must be finite and > 0, got " + num(fps_));
+}
+
+// The radius where each model's radial map stops increasing (see the header).
+void CameraModel::set_domain() {
+  r_max_ = r2_max_ = rd_max_ = inf;
+  theta_max_ = 0.5 * pi;
+  switch (distortion_) {
+    case Distortion::none: break;
+    case Distortion::visp:
+      // d/dr [r (1 + k r^2)] = 1 + 3 k r^2: folds at r^2 = -1 / (3 k) when k < 0.
+      if (k_[0] < 0.0) r2_max_ = -1.0 / (3.0 * k_[0]);
+      if (k_[1] < 0.0) rd_max_ = std::sqrt(-1.0 / (3.0 * k_[1]));  // the kdu map's own fold, distorted radius
+      r_max_ = std::sqrt(r2_max_);
+      break;
+    case Distortion::plumb_bob: {
+      // d/dr [r R(r^2)] = 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3, s = r^2 (radial part).
+      r2_max_ = smallest_positive_root({1.0, 3.0 * k_[0], 5.0 * k_[1], 7.0 * k_[4], 0.0}, 3, 1e8);
+      r_max_ = std::sqrt(r2_max_);
+      if (std::isfinite(r2_max_)) rd_max_ = r_max_ * (1.0 + r2_max_ * (k_[0] + r2_max_ * (k_[1] + r2_max_ * k_[4])));
+      break;
+    }
+    case Distortion::equidistant: {
+      // d/dtheta [theta (1 + k1 t + k2 t^2 + k3 t^3 + k4 t^4)], t = theta^2, and theta < pi/2 (in front).
+      const double t = smallest_positive_root({1.0, 3.0 * k_[0], 5.0 * k_[1], 7.0 * k_[2], 9.0 * k_[3]}, 4, 0.25 * pi * pi);
+      theta_max_ = std::min(0.5 * pi, std::sqrt(t));
+      if (theta_max_ < 0.5 * pi) {
+        r_max_ = std::tan(theta_max_);
+        r2_max_ = r_max_ * r_max_;
+      }
+      const double t2 = theta_max_ * theta_max_;
+      rd_max_ = theta_max_ * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
+      break;
+    }
+  }
+}
+
+bool CameraModel::project(double x, double y, Eigen::Vector2d& pixel) const noexcept {
+  const double r2 = x * x + y * y;
+  if (!(r2 < r2_max_) || !std::isfinite(r2)) {  // also catches NaN
+    pixel.setConstant(nan);
+    return false;
+  }
+  switch (distortion_) {
+    case Distortion::none: pixel << u0_ + px_ * x, v0_ + py_ * y; break;
+    case Distortion::visp: {  // written exactly as ViSP (and the simulator before) evaluate it
+      const double k = 1.0 + k_[0] * r2;
+      pixel << u0_ + px_ * x * k, v0_ + py_ * y * k;
+      break;
+    }
+    case Distortion::plumb_bob: {
+      const double k1 = k_[0], k2 = k_[1], p1 = k_[2], p2 = k_[3], k3 = k_[4];
+      const double R = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+      const double xd = x * R + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+      const double yd = y * R + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+      pixel << u0_ + px_ * xd, v0_ + py_ * yd;
+      if ((p1 != 0.0 || p2 != 0.0) && !(plumb_bob_det(k_, x, y) > 0.0)) {  // the tangential terms' fold
+        pixel.setConstant(nan);
+        return false;
+      }
+      break;
+    }
+    case Distortion::equidistant: {
+      const double r = std::sqrt(r2), th = std::atan(r), t2 = th * th;
+      const double thd = th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
+      const double s = r > 0.0 ? thd / r : 1.0;
+      pixel << u0_ + px_ * (x * s), v0_ + py_ * (y * s);
+      break;
+    }
+  }
+  return true;
+}
+
+bool CameraModel::normalize(double u, double v, Eigen::Vector2d& uv) const noexcept {
+  if (!std::isfinite(u) || !std::isfinite(v)) {
+    uv.setConstant(nan);
+    return false;
+  }
+  const double xd = (u - u0_) / px_, yd = (v - v0_) / py_;
+  bool ok = true;
+  switch (distortion_) {
+    case Distortion::none: uv << xd, yd; break;
+    case Distortion::visp: {
+      const double r2 = xd * xd + yd * yd;
+      ok = r2 < rd_max_ * rd_max_;
+      const double k = 1.0 + k_[1] * r2;
+      uv << xd * k, yd * k;
+      break;
+    }
+    case Distortion::plumb_bob: ok = undistort_plumb_bob(xd, yd, uv); break;
+    case Distortion::equidistant: ok = undistort_equidistant(xd, yd, uv); break;
+  }
+  if (!ok) uv.setConstant(nan);
+  return ok;
+}
+
+// Newton's method on the full (radial + tangential) map, started from the
+// exact inverse of its radial part (bracketed, so it stays in the one-to-one
+// disc); the answer must reproduce (xd, yd) to newton_tolerance_px and lie
+// inside max_radius.
+bool CameraModel::undistort_plumb_bob(double xd, double yd, Eigen::Vector2d& uv) const noexcept {
+  const double k1 = k_[0], k2 = k_[1], p1 = k_[2], p2 = k_[3], k3 = k_[4];
+  const auto radial = [&](double r2) { return 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3)); };
+  const double rho = std::sqrt(xd * xd + yd * yd);
+  double x = 0.0, y = 0.0;
+  if (rho > 0.0) {
+    const double target = std::min(rho, rd_max_);
+    const double r = bracketed_newton([&](double r) { return r * radial(r * r); },
+                                      [&](double r) {
+                                        const double s = r * r;
+                                        return 1.0 + s * (3.0 * k1 + s * (5.0 * k2 + s * 7.0 * k3));
+                                      },
+                                      target, r_max_);
+    x = xd * r / rho;
+    y = yd * r / rho;
+  }
+  const double f = std::max(px_, py_);
+  for (int it = 0; it < 30; ++it) {
+    const double r2 = x * x + y * y, R = radial(r2), dR = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
+    const double ex = x * R + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - xd;
+    const double ey = y * R + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - yd;
+    if (f * std::hypot(ex, ey) <= 1e-3 * newton_tolerance_px) break;
+    const double a = R + 2.0 * x * x * dR + 2.0 * p1 * y + 6.0 * p2 * x;  // d xd / dx
+    const double b = 2.0 * x * y * dR + 2.0 * p1 * x + 2.0 * p2 * y;      // d xd / dy = d yd / dx
+    const double d = R + 2.0 * y * y * dR + 6.0 * p1 * y + 2.0 * p2 * x;  // d yd / dy
+    const double det = a * d - b * b;
+    if (!(std::abs(det) > 0.0)) break;
+    const double dx = (d * ex - b * ey) / det, dy = (a * ey - b * ex) / det;
+    x -= dx;
+    y -= dy;
+    if (std::abs(dx) + std::abs(dy) <= 1e-17 * (1.0 + std::abs(x) + std::abs(y))) break;
+  }
+  const double r2 = x * x + y * y, R = radial(r2);
+  const double ex = x * R + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - xd;
+  const double ey = y * R + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - yd;
+  uv << x, y;
+  return r2 < r2_max_ && f * std::hypot(ex, ey) <= newton_tolerance_px && plumb_bob_det(k_, x, y) > 0.0;
+}
+
+// theta_d = |(xd, yd)| is a function of theta alone: invert it by bracketed
+// Newton on [0, theta_max), then r = tan(theta) along the same direction.
+bool CameraModel::undistort_equidistant(double xd, double yd, Eigen::Vector2d& uv) const noexcept {
+  const double thd = std::sqrt(xd * xd + yd * yd);
+  if (thd == 0.0) {
+    uv.setZero();
+    return true;
+  }
+  if (!(thd < rd_max_)) return false;
+  const auto g = [&](double th) {
+    const double t2 = th * th;
+    return th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
+  };
+  const auto dg = [&](double th) {
+    const double t2 = th * th;
+    return 1.0 + t2 * (3.0 * k_[0] + t2 * (5.0 * k_[1] + t2 * (7.0 * k_[2] + t2 * 9.0 * k_[3])));
+  };
+  const double th = bracketed_newton(g, dg, thd, theta_max_);
+  const double s = std::tan(th) / thd;
+  uv << xd * s, yd * s;
+  return th < theta_max_ && std::max(px_, py_) * std::abs(g(th) - thd) <= newton_tolerance_px;
+}
+
+int CameraModel::project(const Eigen::Ref<const Points>& uv, Eigen::Ref<Points> pixels) const noexcept {
+  if (uv.cols() != pixels.cols()) {
+    pixels.setConstant(nan);
+    return static_cast<int>(pixels.cols());
+  }
+  int failed = 0;
+  Eigen::Vector2d p;
+  for (Eigen::Index i = 0; i < uv.cols(); ++i) {
+    failed += !project(uv(0, i), uv(1, i), p);
+    pixels.col(i) = p;
+  }
+  return failed;
+}
+
+int CameraModel::normalize(const Eigen::Ref<const Points>& pixels, Eigen::Ref<Points> uv) const noexcept {
+  if (uv.cols() != pixels.cols()) {
+    uv.setConstant(nan);
+    return static_cast<int>(uv.cols());
+  }
+  int failed = 0;
+  Eigen::Vector2d p;
+  for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
+    failed += !normalize(pixels(0, i), pixels(1, i), p);
+    uv.col(i) = p;
+  }
+  return failed;
+}
+
+std::string CameraModel::describe() const {
+  std::string s;
+  char buf[320];
+  if (px_ == 1.0 && py_ == 1.0 && u0_ == 0.0 && v0_ == 0.0 && distortion_ == Distortion::none) {
+    std::snprintf(buf, sizeof buf, "CameraModel(normalized, u in [%g, %g], v in [%g, %g], fps=%g)", u_min_, u_max_,
+                  v_min_, v_max_, fps_);
+    return buf;
+  }
+  std::snprintf(buf, sizeof buf, "CameraModel(px=%g, py=%g, u0=%g, v0=%g, distortion=%s", px_, py_, u0_, v0_,
+                to_string(distortion_));
+  s = buf;
+  const Eigen::VectorXd k = coefficients();
+  const char* names[4][5] = {{}, {"kud", "kdu"}, {"k1", "k2", "p1", "p2", "k3"}, {"k1", "k2", "k3", "k4"}};
+  for (Eigen::Index i = 0; i < k.size(); ++i) {
+    std::snprintf(buf, sizeof buf, ", %s=%g", names[static_cast<int>(distortion_)][i], k(i));
+    s += buf;
+  }
+  std::snprintf(buf, sizeof buf, ", %gx%g, fps=%g)", width(), height(), fps_);
+  return s + buf;
+}
+
+}  // namespace ibvs
