@@ -716,7 +716,7 @@ void bench_episode(const char* name, double damping, double noise, int latency, 
   eo.depth = depth;
   eo.seed = 1;
   ibvs::ServoOptions so = servo_options(2.0, damping, true);
-  Episode episode(ibvs::Servo(Layout::stacked(4), so), Camera::afma6(), target, g, eo);
+  Episode episode(ibvs::Servo(Layout::stacked(4), so), ibvs::CameraModel::afma6(), target, g, eo);
   for (int i = 0; i < 3; ++i) episode.run(q_start, q_goal);  // warm-up
   std::vector<double> t(static_cast<std::size_t>(o.episodes));
   const long a0 = g_allocations.load();

@@ -196,5 +196,26 @@ NaN with invalid="nan".)")
 none 5 zeros; visp (kud, 0, 0, 0, 0), which is exact for project() (OpenCV's undistortion then
 inverts kud exactly, where normalize() applies ViSP's separately calibrated kdu).)")
       .def(py::self == py::self)
-      .def("__repr__", &CameraModel::describe);
+      .def("__repr__", &CameraModel::describe)
+      // Pickling (process pools, Dask): every field, re-validated on load.
+      .def(py::pickle(
+          [](const CameraModel& c) {
+            const Eigen::VectorXd k = c.coefficients();
+            return py::make_tuple(c.px(), c.py(), c.u0(), c.v0(), to_string(c.distortion()),
+                                  std::vector<double>(k.data(), k.data() + k.size()), c.u_min(), c.u_max(), c.v_min(),
+                                  c.v_max(), c.fps());
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 11) throw py::value_error("CameraModel: bad pickle state");
+            const std::string d = t[4].cast<std::string>();
+            const Distortion dist = d == "visp"          ? Distortion::visp
+                                    : d == "plumb_bob"   ? Distortion::plumb_bob
+                                    : d == "equidistant" ? Distortion::equidistant
+                                                         : Distortion::none;
+            const std::vector<double> k = t[5].cast<std::vector<double>>();
+            return CameraModel::make(t[0].cast<double>(), t[1].cast<double>(), t[2].cast<double>(), t[3].cast<double>(),
+                                     dist, Eigen::Map<const Eigen::VectorXd>(k.data(), static_cast<Eigen::Index>(k.size())),
+                                     t[6].cast<double>(), t[7].cast<double>(), t[8].cast<double>(), t[9].cast<double>(),
+                                     t[10].cast<double>());
+          }));
 }

@@ -127,21 +127,6 @@ Twist twist_arg(py::handle obj, const char* name) {
   return Eigen::Map<const Twist>(a.data());
 }
 
-// (N, 2) array -> (N, 2) array through f(x, y).
-template <class F>
-py::array_t<double> map_points(py::handle obj, const char* name, F f) {
-  const CArray a = as_array(obj, name);
-  const auto p = points(a, name);
-  py::array_t<double> out({static_cast<py::ssize_t>(p.cols()), py::ssize_t{2}});
-  auto o = out.mutable_unchecked<2>();
-  for (Eigen::Index i = 0; i < p.cols(); ++i) {
-    const Eigen::Vector2d q = f(p(0, i), p(1, i));
-    o(i, 0) = q(0);
-    o(i, 1) = q(1);
-  }
-  return out;
-}
-
 // Copy of the first `rows` rows of a row-major matrix as an array of the given trailing shape.
 py::array_t<double> rows_of(const RowMatrix& M, int rows, std::vector<py::ssize_t> tail) {
   std::vector<py::ssize_t> shape{rows};
@@ -228,72 +213,6 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
 
 void bind_sim(py::module_& m) {
   py::module_ s = m.def_submodule("sim", "Closed-loop simulator (C++). Use ibvs.sim, not this module.");
-
-  py::class_<Camera>(s, "Camera", R"(Pinhole camera with ViSP's first-order radial distortion.
-
-Measurement coordinates are pixels for a pixel camera, normalised coordinates for
-Camera.normalized(). project(): normalised -> measurement with kud;
-normalize(): measurement -> normalised with kdu.)")
-      .def(py::init([](double px, double py_, double u0, double v0, double kud, double kdu, double width,
-                       double height, double fps) {
-             Camera c;
-             c.px = px;
-             c.py = py_;
-             c.u0 = u0;
-             c.v0 = v0;
-             c.kud = kud;
-             c.kdu = kdu;
-             c.u_min = c.v_min = 0.0;
-             c.u_max = width;
-             c.v_max = height;
-             c.fps = fps;
-             c.validate();
-             return c;
-           }),
-           py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"), py::arg("kud") = 0.0, py::arg("kdu") = 0.0,
-           py::arg("width") = 640.0, py::arg("height") = 480.0, py::arg("fps") = 60.0,
-           "A pixel camera; the sensor spans [0, width] x [0, height] pixels.")
-      .def_static("normalized", &Camera::normalized, py::arg("bounds") = 0.3, py::arg("fps") = 60.0,
-                  "Paper Table I: unit focal length, image plane +-bounds, no distortion.")
-      .def_static("afma6", &Camera::afma6,
-                  "Paper Section III-B / ViSP Afma6 camera: 640x480, px 1090.6, py 1090.0, u0 310.1, v0 260.8, "
-                  "kud -0.2114, kdu 0.2217, 60 fps.")
-      .def_readonly("px", &Camera::px)
-      .def_readonly("py", &Camera::py)
-      .def_readonly("u0", &Camera::u0)
-      .def_readonly("v0", &Camera::v0)
-      .def_readonly("kud", &Camera::kud)
-      .def_readonly("kdu", &Camera::kdu)
-      .def_property_readonly("bounds",
-                             [](const Camera& c) { return py::make_tuple(c.u_min, c.u_max, c.v_min, c.v_max); },
-                             "(u_min, u_max, v_min, v_max) in measurement units.")
-      .def_readonly("fps", &Camera::fps)
-      .def(
-          "project",
-          [](const Camera& c, py::handle xy) {
-            return map_points(xy, "xy", [&](double x, double y) { return c.project(x, y); });
-          },
-          py::arg("xy"), "Normalised points (N, 2) -> measurement (N, 2), distorted with kud.")
-      .def(
-          "normalize",
-          [](const Camera& c, py::handle uv) {
-            return map_points(uv, "uv", [&](double u, double v) { return c.normalize(u, v); });
-          },
-          py::arg("uv"), "Measurement points (N, 2) -> normalised (N, 2), undistorted with kdu.")
-      .def("__repr__", &Camera::describe)
-      // Pickling (process pools, Dask): every field, re-validated on load.
-      .def(py::pickle(
-          [](const Camera& c) {
-            return py::make_tuple(c.px, c.py, c.u0, c.v0, c.kud, c.kdu, c.u_min, c.u_max, c.v_min, c.v_max, c.fps);
-          },
-          [](const py::tuple& t) {
-            if (t.size() != 11) throw py::value_error("Camera: bad pickle state");
-            Camera c;
-            double* f[] = {&c.px, &c.py, &c.u0, &c.v0, &c.kud, &c.kdu, &c.u_min, &c.u_max, &c.v_min, &c.v_max, &c.fps};
-            for (std::size_t i = 0; i < 11; ++i) *f[i] = t[i].cast<double>();
-            c.validate();
-            return c;
-          }));
 
   py::class_<Target>(s, "Target", "Points (N, 3) in the target frame and the target's world pose (4x4).")
       .def(py::init([](py::handle pts, py::handle pose) {
@@ -452,7 +371,7 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
 
   s.def(
       "_run",
-      [](py::handle servo, const Camera& camera, const Target& target, py::handle start, py::handle goal,
+      [](py::handle servo, const CameraModel& camera, const Target& target, py::handle start, py::handle goal,
           py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain) {

@@ -177,6 +177,32 @@ CameraModel CameraModel::from_opencv(const Eigen::Matrix3d& K, const Eigen::Ref<
   return c;
 }
 
+CameraModel CameraModel::make(double px, double py, double u0, double v0, Distortion distortion,
+                              const Eigen::Ref<const Eigen::VectorXd>& coefficients, double u_min, double u_max,
+                              double v_min, double v_max, double fps) {
+  const int count[4] = {0, 2, 5, 4};
+  const int d = static_cast<int>(distortion);
+  if (d < 0 || d > 3) fail("distortion must be none, visp, plumb_bob or equidistant");
+  if (coefficients.size() != count[d])
+    fail(std::string("coefficients: the ") + to_string(distortion) + " model takes " + std::to_string(count[d]) +
+         ", got " + std::to_string(coefficients.size()));
+  CameraModel c;
+  c.px_ = px;
+  c.py_ = py;
+  c.u0_ = u0;
+  c.v0_ = v0;
+  c.distortion_ = distortion;
+  for (Eigen::Index i = 0; i < coefficients.size(); ++i) c.k_[static_cast<std::size_t>(i)] = coefficients(i);
+  c.u_min_ = u_min;
+  c.u_max_ = u_max;
+  c.v_min_ = v_min;
+  c.v_max_ = v_max;
+  c.fps_ = fps;
+  c.validate();
+  c.set_domain();
+  return c;
+}
+
 CameraModel CameraModel::normalized(double bounds, double fps) {
   if (!(std::isfinite(bounds) && bounds > 0.0)) fail("bounds must be finite and > 0, got " + num(bounds));
   CameraModel c;

@@ -335,48 +335,6 @@ class sim:
     declared in this namespace class: attribute access and annotations such as
     _core.sim.Camera type-check the same. Use ibvs.sim, not this."""
 
-    class Camera:
-        """Pinhole camera with ViSP's first-order radial distortion (measurement units: pixels,
-        or normalised coordinates for Camera.normalized())."""
-
-        def __init__(
-            self,
-            px: float,
-            py: float,
-            u0: float,
-            v0: float,
-            kud: float = 0.0,
-            kdu: float = 0.0,
-            width: float = 640.0,
-            height: float = 480.0,
-            fps: float = 60.0,
-        ) -> None: ...
-        @staticmethod
-        def normalized(bounds: float = 0.3, fps: float = 60.0) -> sim.Camera: ...
-        @staticmethod
-        def afma6() -> sim.Camera: ...
-        @property
-        def px(self) -> float: ...
-        @property
-        def py(self) -> float: ...
-        @property
-        def u0(self) -> float: ...
-        @property
-        def v0(self) -> float: ...
-        @property
-        def kud(self) -> float: ...
-        @property
-        def kdu(self) -> float: ...
-        @property
-        def bounds(self) -> Tuple[float, float, float, float]:
-            """(u_min, u_max, v_min, v_max) in measurement units."""
-        @property
-        def fps(self) -> float: ...
-        def project(self, xy: _ArrayLike) -> _FloatArray:
-            """Normalised points (N, 2) -> measurement (N, 2), distorted with kud."""
-        def normalize(self, uv: _ArrayLike) -> _FloatArray:
-            """Measurement points (N, 2) -> normalised (N, 2), undistorted with kdu."""
-
     class Target:
         """Points (N, 3) in the target frame and the target's world pose (4x4)."""
 
@@ -458,7 +416,7 @@ class sim:
     @staticmethod
     def _run(
         servo: Union[Servo, PartitionedServo],
-        camera: sim.Camera,
+        camera: CameraModel,
         target: sim.Target,
         start: _ArrayLike,
         goal: _ArrayLike,

@@ -93,7 +93,7 @@ def _is_pixel_camera(camera) -> bool:
     if camera is None:
         return False
     return not (camera.px == 1 and camera.py == 1 and camera.u0 == 0 and camera.v0 == 0
-                and camera.kud == 0 and camera.kdu == 0)
+                and camera.distortion == "none")
 
 
 def _sensor_border(camera, samples: int = 48) -> np.ndarray:

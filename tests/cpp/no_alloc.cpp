@@ -71,9 +71,9 @@ void episode_allocates_nothing() {
         const Gantry g = Gantry::afma6();
         std::optional<Episode> e;
         if (gantry)
-          e.emplace(std::move(servo), Camera::afma6(), gantry_target(g), g, o);
+          e.emplace(std::move(servo), CameraModel::afma6(), gantry_target(g), g, o);
         else
-          e.emplace(std::move(servo), Camera::normalized(0.3), Target::paper(), o);
+          e.emplace(std::move(servo), CameraModel::normalized(0.3), Target::paper(), o);
         const long before = news.load();
         Eigen::internal::set_is_malloc_allowed(false);
         const EpisodeResult& r =

@@ -46,14 +46,14 @@ void corner_to_corner() {
   o.duration = 20.0;
   o.tolerance = 1e-5;
   {
-    Episode e(servo(Layout::polar(4)), Camera::normalized(0.3), corner_target(), o);
+    Episode e(servo(Layout::polar(4)), CameraModel::normalized(0.3), corner_target(), o);
     const EpisodeResult& r = e.run(start, Pose::Identity());
     CHECK(r.status.outcome == Outcome::left_image);
     CHECK(r.metrics.camera_retreat < 1e-9);  // pure rotation: IBVS-P keeps r constant
   }
   o.boundary_margin = 0.03;
   o.boundary_gain = 0.1;
-  Episode e(servo(Layout::polar(4)), Camera::normalized(0.3), corner_target(), o);
+  Episode e(servo(Layout::polar(4)), CameraModel::normalized(0.3), corner_target(), o);
   const EpisodeResult& r = e.run(start, Pose::Identity());
   CHECK(r.status.outcome == Outcome::converged);
   CHECK(max_abs_uv(r.history) < 0.3);
@@ -63,9 +63,9 @@ void corner_to_corner() {
   // (points at r = 0.118) runs exactly as without the option.
   EpisodeOptions p;
   p.duration = 3.0;
-  Episode a(servo(Layout::polar(4)), Camera::normalized(0.3), Target::paper(), p);
+  Episode a(servo(Layout::polar(4)), CameraModel::normalized(0.3), Target::paper(), p);
   p.boundary_margin = 0.05;
-  Episode b(servo(Layout::polar(4)), Camera::normalized(0.3), Target::paper(), p);
+  Episode b(servo(Layout::polar(4)), CameraModel::normalized(0.3), Target::paper(), p);
   const History& ha = a.run(half_turn_z(), Pose::Identity()).history;
   const History& hb = b.run(half_turn_z(), Pose::Identity()).history;
   CHECK(ha.frames == hb.frames && ha.twist.topRows(ha.frames) == hb.twist.topRows(hb.frames));
@@ -97,7 +97,7 @@ void depth_estimate() {
       o.depth = DepthMode::estimated;
       o.depth_scale = scale;  // initial guess scale * z*
       o.latency = latency;
-      Episode e(servo(Layout::cartesian(4)), Camera::normalized(0.3), tgt, o);
+      Episode e(servo(Layout::cartesian(4)), CameraModel::normalized(0.3), tgt, o);
       const EpisodeResult& r = e.run(general_motion(), Pose::Identity());
       CHECK(r.status.outcome == Outcome::converged);
       if (scale != 1.0) CHECK(worst_relative_depth_error(r, tgt, 0, 1) > 0.3);
@@ -120,7 +120,7 @@ void depth_estimate() {
     ServoOptions so;
     so.gain = 2.0;
     const Target tgt_g = gantry_target(g);
-    Episode e(Servo(Layout::cartesian(4), so), Camera::afma6(), tgt_g, g, o);
+    Episode e(Servo(Layout::cartesian(4), so), CameraModel::afma6(), tgt_g, g, o);
     const EpisodeResult& r = e.run(gantry_start(), gantry_goal());
     CHECK(r.status.outcome == (noise > 0.0 ? Outcome::timeout : Outcome::converged));
     if (noise > 0.0)
@@ -136,7 +136,7 @@ void depth_scale() {
   o.duration = 30.0;
   o.tolerance = 1e-5;
   o.depth_scale = 1.5;
-  Episode e(servo(Layout::cartesian(4)), Camera::normalized(0.3), Target::paper(), o);
+  Episode e(servo(Layout::cartesian(4)), CameraModel::normalized(0.3), Target::paper(), o);
   const EpisodeResult& r = e.run(x_translation(), Pose::Identity());
   CHECK(r.status.outcome == Outcome::converged);
   CHECK_NEAR(r.history.depth(0, 0), 1.5 * 3.0, 1e-12);

@@ -37,7 +37,7 @@ Twist max_abs_twist(const History& h) {
 }
 
 void z_rotation_pi() {
-  const Camera cam = Camera::normalized(0.3);
+  const CameraModel cam = CameraModel::normalized(0.3);
   const Target tgt = Target::paper();
   // Polar: pure wz (Fig. 2).
   auto r = run_episode(servo(Layout::polar(4)), cam, tgt, half_turn_z(), Pose::Identity(), opts(20, 1e-3));
@@ -61,7 +61,7 @@ void z_rotation_pi() {
 }
 
 void x_translation_case() {
-  const Camera cam = Camera::normalized(0.3);
+  const CameraModel cam = CameraModel::normalized(0.3);
   const Target tgt = Target::paper();
   auto r = run_episode(servo(Layout::cartesian(4)), cam, tgt, sim_cases::x_translation(), Pose::Identity(),
                        opts(20, 1e-4));
@@ -81,7 +81,7 @@ void x_translation_case() {
 
 void general_motion_all_converge() {
   for (const Layout& L : {Layout::cartesian(4), Layout::polar(4), Layout::stacked(4)}) {
-    const auto r = run_episode(servo(L), Camera::normalized(0.3), Target::paper(), sim_cases::general_motion(),
+    const auto r = run_episode(servo(L), CameraModel::normalized(0.3), Target::paper(), sim_cases::general_motion(),
                                Pose::Identity(), opts(30, 1e-5));
     ibvs_test::report(r.status.outcome == Outcome::converged, "general motion converges", __FILE__, __LINE__,
                       L.describe() + " " + to_string(r.status.outcome));
@@ -92,7 +92,7 @@ void general_motion_all_converge() {
 void gantry_general_motion() {
   const Gantry g = Gantry::afma6();
   for (const Layout& L : {Layout::cartesian(4), Layout::polar(4), Layout::stacked(4)}) {
-    const auto r = run_episode(servo(L, 2.0), Camera::afma6(), gantry_target(g), g, gantry_start(), gantry_goal(),
+    const auto r = run_episode(servo(L, 2.0), CameraModel::afma6(), gantry_target(g), g, gantry_start(), gantry_goal(),
                                opts(15, 1e-5));
     ibvs_test::report(r.status.outcome == Outcome::converged, "gantry general motion converges", __FILE__, __LINE__,
                       L.describe() + " " + to_string(r.status.outcome));
@@ -105,7 +105,7 @@ void gantry_general_motion() {
 void events_are_reported() {
   const Gantry g = Gantry::afma6();
   // Joint limit: polar drives joint 5 (index 4) to its lower limit; the robot stops inside.
-  auto r = run_episode(servo(Layout::polar(4), 2.0), Camera::afma6(), gantry_target(g), g, gantry_joint_limit_start(),
+  auto r = run_episode(servo(Layout::polar(4), 2.0), CameraModel::afma6(), gantry_target(g), g, gantry_joint_limit_start(),
                        gantry_goal(), opts(15, 1e-5));
   CHECK(r.status.outcome == Outcome::joint_limit);
   CHECK(r.status.joint == 4);
@@ -117,7 +117,7 @@ void events_are_reported() {
   // Tighter limits on joint 1 stop the converging Cartesian run on joint 1 instead.
   Gantry tight = g;
   tight.q_min(0) = 0.05;  // q1 goes from 0.188 to 0
-  r = run_episode(servo(Layout::cartesian(4), 2.0), Camera::afma6(), gantry_target(g), tight, gantry_start(),
+  r = run_episode(servo(Layout::cartesian(4), 2.0), CameraModel::afma6(), gantry_target(g), tight, gantry_start(),
                   gantry_goal(), opts(15, 1e-5));
   CHECK(r.status.outcome == Outcome::joint_limit && r.status.joint == 0);
 
@@ -126,7 +126,7 @@ void events_are_reported() {
   Eigen::Matrix3Xd pts(3, 4);
   pts << -0.8, 0.8, 0.8, -0.8, -0.8, -0.8, 0.8, 0.8, 0, 0, 0, 0;
   const Target big{pts, make_pose(0, 0, 3, 0, 0, 0)};
-  const Camera cam = Camera::normalized(0.3);
+  const CameraModel cam = CameraModel::normalized(0.3);
   const Pose start = make_pose(0, 0, 0, 0, 0, pi / 2);
   r = run_episode(servo(Layout::polar(4)), cam, big, start, Pose::Identity(), opts(20, 1e-4));
   CHECK(r.status.outcome == Outcome::left_image && r.status.frame > 0);
@@ -148,7 +148,7 @@ void events_are_reported() {
   const Pose goal = make_pose(0, 0, 2.4, 0, 0, 0);
   EpisodeOptions ol = opts(10, 1e-4);
   ol.latency = 20;
-  r = run_episode(servo(Layout::cartesian(4), 4.0), Camera::normalized(1e3), tilted, Pose::Identity(), goal, ol);
+  r = run_episode(servo(Layout::cartesian(4), 4.0), CameraModel::normalized(1e3), tilted, Pose::Identity(), goal, ol);
   CHECK(r.status.outcome == Outcome::behind_camera);
   CHECK(r.status.point >= 0 && r.status.point < 4);
   {  // the reported point is indeed at or behind the camera plane at the reported frame, and was not before
@@ -167,7 +167,7 @@ void events_are_reported() {
   CHECK_THROWS(run_episode(servo(Layout::polar(4)), cam, Target::paper(), start, make_pose(0, 0, 5, 0, 0, 0)));
   Joints outside = gantry_start();
   outside(2) = 1.0;
-  CHECK_THROWS(run_episode(servo(Layout::polar(4)), Camera::afma6(), gantry_target(g), g, outside, gantry_goal()));
+  CHECK_THROWS(run_episode(servo(Layout::polar(4)), CameraModel::afma6(), gantry_target(g), g, outside, gantry_goal()));
 }
 
 void noise_latency_depth_modes() {
@@ -175,7 +175,7 @@ void noise_latency_depth_modes() {
   EpisodeOptions o = opts(15, 1e-5);
   o.noise = 0.5;
   o.seed = 7;
-  Episode e(servo(Layout::stacked(4), 2.0), Camera::afma6(), gantry_target(g), g, o);
+  Episode e(servo(Layout::stacked(4), 2.0), CameraModel::afma6(), gantry_target(g), g, o);
   const EpisodeResult a = e.run(gantry_start(), gantry_goal());
   const EpisodeResult b = e.run(gantry_start(), gantry_goal());
   CHECK(a.history.frames == b.history.frames && a.history.uv == b.history.uv);  // seeded: identical
@@ -184,7 +184,7 @@ void noise_latency_depth_modes() {
   // Latency: the controller's first `latency` frames all see frame 0's image.
   o.noise = 0;
   o.latency = 5;
-  Episode el(servo(Layout::cartesian(4), 2.0), Camera::afma6(), gantry_target(g), g, o);
+  Episode el(servo(Layout::cartesian(4), 2.0), CameraModel::afma6(), gantry_target(g), g, o);
   const EpisodeResult& l = el.run(gantry_start(), gantry_goal());
   CHECK(l.history.uv.row(5) == l.history.uv.row(0));
   CHECK(l.history.uv.row(6) != l.history.uv.row(0));
@@ -193,7 +193,7 @@ void noise_latency_depth_modes() {
   for (DepthMode d : {DepthMode::pose, DepthMode::desired}) {
     EpisodeOptions od = opts(15, 1e-5);
     od.depth = d;
-    const auto r = run_episode(servo(Layout::polar(4), 2.0), Camera::afma6(), gantry_target(g), g, gantry_start(),
+    const auto r = run_episode(servo(Layout::polar(4), 2.0), CameraModel::afma6(), gantry_target(g), g, gantry_start(),
                                gantry_goal(), od);
     ibvs_test::report(r.status.outcome == Outcome::converged, "depth mode converges", __FILE__, __LINE__,
                       to_string(d) + std::string(" ") + to_string(r.status.outcome));
@@ -219,7 +219,7 @@ PartitionedServo partitioned(double gain, int n = 4) {
 // and on the gantry; the history holds its Cartesian error and the sigma_min of
 // its four (Tx, Ty, wx, wy) columns.
 void partitioned_episodes() {
-  const Camera cam = Camera::normalized(0.3);
+  const CameraModel cam = CameraModel::normalized(0.3);
   const Target tgt = Target::paper();
   Episode e(partitioned(1.0), cam, tgt, opts(20, 1e-5));
   CHECK(std::holds_alternative<PartitionedServo>(e.servo()));
@@ -244,7 +244,7 @@ void partitioned_episodes() {
                     to_string(f.status.outcome));
   CHECK(f.metrics.final_translation_error < 1e-3);
   const Gantry g = Gantry::afma6();
-  const auto q = run_episode(partitioned(2.0), Camera::afma6(), gantry_target(g), g, gantry_start(), gantry_goal(),
+  const auto q = run_episode(partitioned(2.0), CameraModel::afma6(), gantry_target(g), g, gantry_start(), gantry_goal(),
                              opts(15, 1e-5));
   ibvs_test::report(q.status.outcome == Outcome::converged, "partitioned gantry general motion converges", __FILE__,
                     __LINE__, to_string(q.status.outcome));
@@ -257,7 +257,7 @@ void partitioned_episodes() {
 void timing() {
   const Gantry g = Gantry::afma6();
   EpisodeOptions o = opts(10, 0.0);  // tolerance 0: all 600 frames
-  Episode e(servo(Layout::stacked(4), 2.0), Camera::afma6(), gantry_target(g), g, o);
+  Episode e(servo(Layout::stacked(4), 2.0), CameraModel::afma6(), gantry_target(g), g, o);
   double best = 1e9;
   for (int i = 0; i < 20; ++i) {
     const auto t0 = std::chrono::steady_clock::now();

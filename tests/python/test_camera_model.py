@@ -118,6 +118,35 @@ def test_visp_formulas():
     assert ibvs.CameraModel(1090.6, 1090.0, 310.1, 260.8, -0.2114, 0.2217) == cam
 
 
+def test_simulator_camera_is_the_camera_model():
+    from ibvs import sim
+
+    assert sim.Camera is ibvs.CameraModel
+    assert sim.cases.gantry_general_motion().camera == ibvs.CameraModel.afma6()
+    n = sim.Camera.normalized(0.3)
+    assert n.bounds == (-0.3, 0.3, -0.3, 0.3) and n.distortion == "none" and n.coefficients == ()
+    xy = np.array([[0.1, -0.2], [0.0, 0.25]])
+    assert np.array_equal(n.project(xy), xy) and np.array_equal(n.normalize(xy), xy)
+    assert "CameraModel(" in repr(n) and "visp" in repr(ibvs.CameraModel.afma6())
+
+
+def test_simulator_ends_a_point_beyond_the_fold_as_left_image():
+    """A point past the radius where the distortion folds lands back inside the image under the bare
+    formula (cv2.projectPoints puts it near the centre): the simulator ends the episode as left_image
+    for that point instead of servoing on a folded image."""
+    from ibvs import sim
+
+    cam = ibvs.CameraModel.from_opencv([[300, 0, 320], [0, 300, 240], [0, 0, 1]], [-0.5, 0, 0, 0], W, H)
+    assert cam.max_radius == pytest.approx(1 / math.sqrt(1.5))
+    points = np.array([[0.1, 0.1, 2.0], [-0.1, 0.1, 2.0], [-0.1, -0.1, 2.0], [3.0, 0.0, 2.0]])  # point 3 at x/z = 1.5
+    folded, _ = cv2.projectPoints(points[3:], np.zeros(3), np.zeros(3), cam.K, np.array([-0.5, 0, 0, 0]))
+    assert cam.contains(folded[0, 0])  # the bare formula would call it visible
+    target = sim.Target(points)
+    r = sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, target, np.eye(4), sim.pose(t=(0, 0, -20)))
+    assert (r.status.outcome, r.status.frame, r.status.point) == ("left_image", 0, 3)
+    assert np.isfinite(r.history.twist).all()  # nothing non-finite reached the servo or the history
+
+
 def radial_derivative(cam, r):
     """d rd / dr of the model's radial map at normalised radius r (by central differences of project)."""
     h = 1e-7 * max(r, 1.0)
@@ -242,6 +271,19 @@ def test_to_opencv_round_trip():
         Kc, dist = cam.to_opencv()
         assert np.array_equal(Kc, cam.K)
         assert ibvs.CameraModel.from_opencv(Kc, dist, W, H, fisheye=cam.distortion == "equidistant") == cam
+
+
+def test_pickles():
+    import pickle
+
+    for cam in (
+        ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H, fps=30),
+        ibvs.CameraModel.from_opencv(K_FISHEYE, FISHEYE, W, H, fisheye=True),
+        ibvs.CameraModel.afma6(),
+        ibvs.CameraModel.normalized(0.25),
+    ):
+        back = pickle.loads(pickle.dumps(cam))
+        assert back == cam and back.max_radius == cam.max_radius and repr(back) == repr(cam)
 
 
 # --- calibration files -------------------------------------------------------------------------

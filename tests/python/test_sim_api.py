@@ -14,7 +14,8 @@ def servo(layout=None, gain=1.0):
 
 def test_camera_presets():
     c = sim.Camera.afma6()
-    assert (c.px, c.py, c.u0, c.v0, c.kud, c.kdu, c.fps) == (1090.6, 1090.0, 310.1, 260.8, -0.2114, 0.2217, 60.0)
+    assert (c.px, c.py, c.u0, c.v0, c.fps) == (1090.6, 1090.0, 310.1, 260.8, 60.0)
+    assert c.distortion == "visp" and c.coefficients == (-0.2114, 0.2217)  # (kud, kdu)
     assert c.bounds == (0.0, 640.0, 0.0, 480.0)
     n = sim.Camera.normalized(bounds=0.3)
     assert n.bounds == (-0.3, 0.3, -0.3, 0.3)
@@ -22,7 +23,7 @@ def test_camera_presets():
     assert np.array_equal(n.project(xy), xy)
     uv = c.project(xy)
     assert np.allclose(c.normalize(uv), xy, atol=1e-3)  # kud / kdu: close, not exact
-    assert "Camera(" in repr(c)
+    assert "CameraModel(" in repr(c)
 
 
 def test_target_and_gantry():

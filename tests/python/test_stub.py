@@ -58,7 +58,7 @@ def test_top_level_names():
 def test_sim_submodule_names():
     assert inspect.ismodule(_core.sim)
     assert declared(SIM) == runtime_members(_core.sim)
-    assert "_run" in SIM and "Camera" in SIM_CLASSES
+    assert "_run" in SIM and "Target" in SIM_CLASSES
 
 
 @pytest.mark.parametrize(

@@ -80,6 +80,12 @@ class CameraModel {
   /// All-zero plumb_bob coefficients (or none at all) give distortion none.
   static CameraModel from_opencv(const Eigen::Matrix3d& K, const Eigen::Ref<const Eigen::VectorXd>& dist,
                                  double width, double height, bool fisheye = false, double fps = 60.0);
+  /// Every field at once (the constructors above are shorthands for it; pickling stores these):
+  /// intrinsics, a distortion with its coefficients as coefficients() gives them (none 0, visp 2,
+  /// plumb_bob 5, equidistant 4), sensor bounds and frame rate.
+  static CameraModel make(double px, double py, double u0, double v0, Distortion distortion,
+                          const Eigen::Ref<const Eigen::VectorXd>& coefficients, double u_min, double u_max,
+                          double v_min, double v_max, double fps);
   /// Paper Table I: the unit-focal camera of normalised coordinates, sensor +-bounds, no distortion.
   static CameraModel normalized(double bounds = 0.3, double fps = 60.0);
   /// Paper Section III-B (ViSP's Afma6 camera with distortion): 640x480,

@@ -73,7 +73,7 @@ const Layout& layout_of(const AnyServo& servo) noexcept {
 
 }  // namespace
 
-Episode::Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions options)
+Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptions options)
     : servo_(std::move(servo)),
       out_(layout_of(servo_)),
       camera_(camera),
@@ -99,7 +99,7 @@ Episode::Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions op
   est_.resize(3, n);
   est_cov_.resize(n);
   ring_motion_.assign(static_cast<std::size_t>(slots), Pose::Identity());
-  const long frames = std::lround(options_.duration * camera_.fps);
+  const long frames = std::lround(options_.duration * camera_.fps());
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
   const Eigen::Index K = frames, m = layout_of(servo_).rows();
   History& h = result_.history;
@@ -119,7 +119,7 @@ Episode::Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions op
   result_.depth_desired.resize(n);
 }
 
-Episode::Episode(AnyServo servo, Camera camera, Target target, std::shared_ptr<Robot> robot,
+Episode::Episode(AnyServo servo, CameraModel camera, Target target, std::shared_ptr<Robot> robot,
                  EpisodeOptions options)
     : Episode(std::move(servo), camera, std::move(target), options) {
   if (!robot) throw std::invalid_argument("ibvs: robot must not be null");
@@ -135,7 +135,7 @@ Episode::Episode(AnyServo servo, Camera camera, Target target, std::shared_ptr<R
   h.manipulability.resize(h.time.size());
 }
 
-Episode::Episode(AnyServo servo, Camera camera, Target target, const Gantry& gantry, EpisodeOptions options)
+Episode::Episode(AnyServo servo, CameraModel camera, Target target, const Gantry& gantry, EpisodeOptions options)
     : Episode(std::move(servo), camera, std::move(target), std::make_shared<Gantry>(gantry), options) {}
 
 // Desired features as the camera measures them at the goal (teach by showing).
@@ -147,11 +147,13 @@ void Episode::prepare(const Pose& goal) {
     const Eigen::Vector3d p = T_cw.topLeftCorner<3, 3>() * world_points_.col(i) + T_cw.topRightCorner<3, 1>();
     if (!(p(2) >= options_.min_depth))
       throw std::invalid_argument("ibvs: goal: target point " + std::to_string(i) + " is behind the camera");
-    const Eigen::Vector2d m = camera_.project(p(0) / p(2), p(1) / p(2));
-    if (!camera_.contains(m(0), m(1)))
+    Eigen::Vector2d m, uv;
+    if (!camera_.project(p(0) / p(2), p(1) / p(2), m) || !camera_.contains(m(0), m(1)) ||
+        !camera_.normalize(m(0), m(1), uv))
       throw std::invalid_argument("ibvs: goal: target point " + std::to_string(i) + " is outside the image");
-    result_.uv_desired.col(i) = camera_.normalize(m(0), m(1));
-    desired_distance_.col(i) << m(0) - camera_.u_min, camera_.u_max - m(0), m(1) - camera_.v_min, camera_.v_max - m(1);
+    result_.uv_desired.col(i) = uv;
+    desired_distance_.col(i) << m(0) - camera_.u_min(), camera_.u_max() - m(0), m(1) - camera_.v_min(),
+        camera_.v_max() - m(1);
     result_.depth_desired(i) = p(2);
   }
 }
@@ -194,7 +196,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   const int n = target_.size();
   const int K = capacity();
   const int slots = options_.latency + 1;
-  const double dt = 1.0 / camera_.fps;
+  const double dt = 1.0 / camera_.fps();
   const bool robot = q_start != nullptr;
   JointVector q = robot ? *q_start : JointVector();
   // The robot's end-effector pose and Jacobian at q (kinematics() once per frame).
@@ -252,8 +254,11 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     // 3. Measurement into the latency ring.
     const int slot = k % slots;
     for (int i = 0; i < n; ++i) {
-      const Eigen::Vector2d p = camera_.project(pc_(0, i) / pc_(2, i), pc_(1, i) / pc_(2, i));
-      if (outside < 0 && !camera_.contains(p(0), p(1))) outside = i;
+      // A point the model cannot map (beyond the radius where its distortion folds) has left the
+      // camera's usable field of view: left_image, like a point outside the sensor.
+      Eigen::Vector2d p;
+      const bool mapped = camera_.project(pc_(0, i) / pc_(2, i), pc_(1, i) / pc_(2, i), p);
+      if (outside < 0 && !(mapped && camera_.contains(p(0), p(1)))) outside = i;
       Eigen::Vector2d noisy = p;
       if (options_.noise > 0.0) noisy += options_.noise * Eigen::Vector2d(gauss(rng), gauss(rng));
       measured_.col(static_cast<Eigen::Index>(slot) * n + i) = noisy;
@@ -266,10 +271,18 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     // Before t = 0 the camera sat at its start pose: frame 0 stands for those frames.
     const int seen = k >= options_.latency ? (k - options_.latency) % slots : 0;
 
-    // 4. What the controller sees: undistorted points and depths.
+    // 4. What the controller sees: undistorted points and depths. A noisy pixel the model
+    // cannot invert (past the image of its fold radius) also counts as left_image.
+    int lost = -1;
     for (int i = 0; i < n; ++i) {
       const auto mm = measured_.col(static_cast<Eigen::Index>(seen) * n + i);
-      uv_.col(i) = camera_.normalize(mm(0), mm(1));
+      Eigen::Vector2d q;
+      if (!camera_.normalize(mm(0), mm(1), q) && lost < 0) lost = i;
+      uv_.col(i) = q;
+    }
+    if (lost >= 0) {
+      st = {Outcome::left_image, k, lost, -1};
+      break;
     }
     switch (options_.depth) {
       case DepthMode::exact: z_ = ring_depth_.row(seen).transpose(); break;
@@ -387,10 +400,11 @@ double Episode::boundary_tz(int seen) const noexcept {
     const double z = z_(i);
     zbar += z;
     // distance to each side, its derivative along u or v, and d(u or v)/dTz
-    const double d[4] = {p(0) - camera_.u_min, camera_.u_max - p(0), p(1) - camera_.v_min, camera_.v_max - p(1)};
+    const double d[4] = {p(0) - camera_.u_min(), camera_.u_max() - p(0), p(1) - camera_.v_min(),
+                         camera_.v_max() - p(1)};
     const double sign[4] = {1.0, -1.0, 1.0, -1.0};
-    const double rate[4] = {(p(0) - camera_.u0) / z, (p(0) - camera_.u0) / z, (p(1) - camera_.v0) / z,
-                            (p(1) - camera_.v0) / z};
+    const double rate[4] = {(p(0) - camera_.u0()) / z, (p(0) - camera_.u0()) / z, (p(1) - camera_.v0()) / z,
+                            (p(1) - camera_.v0()) / z};
     for (int side = 0; side < 4; ++side) {
       const double m = std::min(margin, desired_distance_(side, i));
       if (!(m > 0.0)) continue;
@@ -409,7 +423,7 @@ double Episode::boundary_tz(int seen) const noexcept {
 // floor (about 0.01 px at f = 1090 px) for what the model leaves out (the
 // distortion model's kud / kdu mismatch, rounding).
 double Episode::depth_measurement_variance() const noexcept {
-  const double sigma = options_.noise / std::min(camera_.px, camera_.py);
+  const double sigma = options_.noise / std::min(camera_.px(), camera_.py());
   return sigma * sigma + 1e-10;
 }
 
@@ -462,13 +476,13 @@ void Episode::estimate_depth(int seen) noexcept {
   }
 }
 
-EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Pose& start,
+EpisodeResult run_episode(AnyServo servo, const CameraModel& camera, const Target& target, const Pose& start,
                           const Pose& goal, const EpisodeOptions& options) {
   Episode e(std::move(servo), camera, target, options);
   return e.run(start, goal);
 }
 
-EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Gantry& gantry,
+EpisodeResult run_episode(AnyServo servo, const CameraModel& camera, const Target& target, const Gantry& gantry,
                           const Joints& q_start, const Joints& q_goal, const EpisodeOptions& options) {
   Episode e(std::move(servo), camera, target, gantry, options);
   return e.run(q_start, q_goal);

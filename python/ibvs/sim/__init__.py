@@ -23,13 +23,13 @@ from typing import Optional, Union
 
 import numpy as np
 
-from .._core import Layout, PartitionedServo, Servo
+from .._core import CameraModel, Layout, PartitionedServo, Servo
 from .._core import sim as _sim
 from . import cases
 from .poses import pose, pose_deg, rotation
 from .urdf import UrdfRobot, example_robot_urdf
 
-Camera = _sim.Camera
+Camera = CameraModel  # the simulator's camera is the core's CameraModel (the same class)
 Target = _sim.Target
 Robot = _sim.Robot
 Gantry = _sim.Gantry
@@ -226,7 +226,9 @@ def run(
         jacobian mode, polar_min_radius, max_linear_speed / max_angular_speed) or an
         ibvs.PartitionedServo. The episode runs a copy with the same options, with its
         diagnostics on (the history records sigma_min); the object itself is not modified.
-    camera, target: a Camera and a Target with as many points as the servo's layout.
+    camera, target: an ibvs.CameraModel (also ibvs.sim.Camera) and a Target with as many points
+        as the servo's layout. A point the camera model cannot map (beyond its max_radius) ends
+        the episode as left_image, like a point outside the sensor.
     start, goal: 4x4 world <- camera poses; with a robot (an ibvs.sim.Robot: a Gantry, a
         UrdfRobot or any subclass), start is its n joint positions and goal n joint positions
         or a 4x4 world <- camera pose. The desired features are what the camera measures at
@@ -259,7 +261,7 @@ def run(
     if robot is not None and not isinstance(robot, Robot):
         raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
     if not isinstance(camera, Camera):
-        raise TypeError(f"camera must be an ibvs.sim.Camera, got {type(camera).__name__}")
+        raise TypeError(f"camera must be an ibvs.CameraModel (ibvs.sim.Camera), got {type(camera).__name__}")
     if not isinstance(target, Target):
         raise TypeError(f"target must be an ibvs.sim.Target, got {type(target).__name__}")
     if isinstance(latency, bool) or not isinstance(latency, (int, np.integer)):

@@ -23,6 +23,7 @@ from typing import Optional
 
 import numpy as np
 
+from .._core import CameraModel
 from .._core import sim as _sim
 from .poses import pose
 
@@ -35,7 +36,7 @@ class Case:
 
     name: str
     description: str
-    camera: _sim.Camera
+    camera: CameraModel
     target: _sim.Target
     start: np.ndarray
     goal: np.ndarray
@@ -49,7 +50,7 @@ def x_translation(distance: float = 0.2) -> Case:
     return Case(
         "x_translation",
         f"pure x-axis translation of {distance} (paper Fig. 1)",
-        _sim.Camera.normalized(0.3),
+        CameraModel.normalized(0.3),
         _sim.Target.paper(),
         pose(t=(distance, 0.0, 0.0)),
         np.eye(4),
@@ -65,7 +66,7 @@ def z_rotation(angle: float = np.pi) -> Case:
     return Case(
         "z_rotation",
         f"pure z-axis rotation of {angle:.6g} rad (paper Fig. 2)",
-        _sim.Camera.normalized(0.3),
+        CameraModel.normalized(0.3),
         _sim.Target.paper(),
         pose(r=(0.0, 0.0, angle)),
         np.eye(4),
@@ -83,7 +84,7 @@ def general_motion() -> Case:
     return Case(
         "general_motion",
         "rotation and translation about all axes (paper Fig. 3)",
-        _sim.Camera.normalized(0.3),
+        CameraModel.normalized(0.3),
         _sim.Target.paper(),
         pose(t=GENERAL_MOTION_T, r=GENERAL_MOTION_R),
         np.eye(4),
@@ -108,7 +109,7 @@ def corner_to_corner(radius: float = 0.36, angle: float = 0.75, depth: float = 1
     return Case(
         "corner_to_corner",
         f"corner to corner: polar ({radius:g}, {angle:g}) -> ({radius:g}, {-angle:g}) (paper Fig. 4, C -> D)",
-        _sim.Camera.normalized(0.3),
+        CameraModel.normalized(0.3),
         _sim.Target(pts),
         pose(r=(0.0, 0.0, -2.0 * angle)),
         np.eye(4),
@@ -162,7 +163,7 @@ def _gantry_case(name: str, description: str, t, r, duration: float) -> Case:
     goal_pose = robot.camera(goal)
     target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, DESIRED_DEPTH)))
     start = solve_joints(robot, goal_pose @ pose(t=t, r=r), goal)
-    return Case(name, description, _sim.Camera.afma6(), target, start, goal, robot, duration,
+    return Case(name, description, CameraModel.afma6(), target, start, goal, robot, duration,
                 {"start_offset": (t, r)})
 
 
@@ -217,7 +218,7 @@ def arm_general_motion(name: str = "panda") -> Case:
     target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, ARM_DESIRED_DEPTH)))
     start = solve_joints(robot, goal_pose @ pose(t=GANTRY_GENERAL_MOTION_T, r=GANTRY_GENERAL_MOTION_R), goal)
     return Case(f"{name}_general_motion", f"general motion with a camera on the {name} arm (URDF, Pinocchio)",
-                _sim.Camera.afma6(), target, start, goal, robot, 15.0)
+                CameraModel.afma6(), target, start, goal, robot, 15.0)
 
 
 def free_cases() -> list[Case]:

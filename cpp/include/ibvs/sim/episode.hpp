@@ -8,16 +8,20 @@
 //      previous command (free-flying, T_wc <- T_wc exp(v dt)) or from the
 //      robot's forward kinematics at its joint positions (times its mount);
 //   2. the target's points in the camera frame; a point with depth below
-//      min_depth ends the episode (behind_camera), as does a point whose
-//      noise-free projection falls outside the sensor (left_image);
-//   3. the measurement: projection with kud plus Gaussian noise (seeded),
+//      min_depth ends the episode (behind_camera); one whose noise-free
+//      projection falls outside the sensor, or that the camera model cannot
+//      map (beyond its max_radius), ends it as left_image;
+//   3. the measurement: the camera model's projection (ibvs::CameraModel:
+//      kud for the paper's ViSP camera) plus Gaussian noise (seeded),
 //      written into a latency ring buffer; the controller reads the one taken
 //      `latency` frames earlier (before t = 0 the camera sat at its start);
-//   4. the controller's points: the delayed measurement undistorted with kdu;
-//      depths exact (of the delayed frame), from a planar pose estimate, or
-//      the constant desired depths, or an online estimate from successive
-//      frames and the known camera motion (DepthMode::estimated, below); all
-//      times depth_scale (a calibration error);
+//   4. the controller's points: the delayed measurement normalised by the
+//      camera model (kdu for ViSP's; a pixel it cannot invert ends the
+//      episode as left_image); depths exact (of the delayed frame), from a
+//      planar pose estimate, the constant desired depths, or an online
+//      estimate from successive frames and the known camera motion
+//      (DepthMode::estimated, below); all times depth_scale (a calibration
+//      error);
 //   5. Servo::update (paper eqs. 11-13) or PartitionedServo::update (Corke &
 //      Hutchinson 2001) gives the camera twist; with
 //      boundary_margin > 0 an image-boundary potential adds a retreat to Tz
@@ -75,7 +79,7 @@
 
 #include "ibvs/partitioned.hpp"
 #include "ibvs/servo.hpp"
-#include "ibvs/sim/camera.hpp"
+#include "ibvs/camera_model.hpp"
 #include "ibvs/sim/gantry.hpp"
 #include "ibvs/sim/planar_pose.hpp"
 #include "ibvs/sim/robot.hpp"
@@ -91,6 +95,10 @@
 #include <vector>
 
 namespace ibvs::sim {
+
+/// The simulator's camera is the core's CameraModel (one class for users and
+/// the simulator); the name is kept for code written against ibvs::sim::Camera.
+using Camera = CameraModel;
 
 /// The control laws an episode can run: the layout-based law (Cartesian, polar,
 /// hybrid, stacked, cylindrical, automatic hybrid; any ServoOptions) or the
@@ -108,7 +116,7 @@ enum class DepthMode : std::uint8_t {
 /// How an episode ended.
 enum class Outcome : std::uint8_t {
   converged = 0,      ///< error norm < tolerance
-  left_image = 1,     ///< a point left the sensor (EpisodeStatus::point)
+  left_image = 1,     ///< a point left the sensor or the camera model's domain (EpisodeStatus::point)
   behind_camera = 2,  ///< a point's depth fell below min_depth (EpisodeStatus::point)
   joint_limit = 3,    ///< the next step would leave a joint's range (EpisodeStatus::joint)
   singular = 4,       ///< the servo reported a rank-deficient interaction matrix
@@ -196,12 +204,12 @@ struct EpisodeResult {
 class Episode {
  public:
   /// Free-flying camera.
-  Episode(AnyServo servo, Camera camera, Target target, EpisodeOptions options = {});
+  Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptions options = {});
   /// Camera on a robot (validated here; shared, not copied: run() calls its
   /// kinematics(), so a robot must not be run by two episodes at once).
-  Episode(AnyServo servo, Camera camera, Target target, std::shared_ptr<Robot> robot, EpisodeOptions options = {});
+  Episode(AnyServo servo, CameraModel camera, Target target, std::shared_ptr<Robot> robot, EpisodeOptions options = {});
   /// Camera on the gantry (a copy of it).
-  Episode(AnyServo servo, Camera camera, Target target, const Gantry& gantry, EpisodeOptions options = {});
+  Episode(AnyServo servo, CameraModel camera, Target target, const Gantry& gantry, EpisodeOptions options = {});
 
   /// Free-flying: start and goal are world <- camera poses.
   const EpisodeResult& run(const Pose& start, const Pose& goal);
@@ -229,7 +237,7 @@ class Episode {
 
   AnyServo servo_;
   ServoOutput out_;
-  Camera camera_;
+  CameraModel camera_;
   Target target_;
   std::shared_ptr<Robot> robot_;
   std::optional<JointMapping> mapping_;  // the robot's, sized for its n joints
@@ -255,9 +263,9 @@ class Episode {
 };
 
 /// One call per episode (allocates its Episode; for repeated runs keep an Episode).
-EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Pose& start,
+EpisodeResult run_episode(AnyServo servo, const CameraModel& camera, const Target& target, const Pose& start,
                           const Pose& goal, const EpisodeOptions& options = {});
-EpisodeResult run_episode(AnyServo servo, const Camera& camera, const Target& target, const Gantry& gantry,
+EpisodeResult run_episode(AnyServo servo, const CameraModel& camera, const Target& target, const Gantry& gantry,
                           const Joints& q_start, const Joints& q_goal, const EpisodeOptions& options = {});
 
 }  // namespace ibvs::sim

@@ -2,7 +2,7 @@
 // an Afma6-like gantry with a calibrated, distorted 60 Hz camera.
 #pragma once
 
-#include "ibvs/sim/camera.hpp"
+#include "ibvs/camera_model.hpp"
 #include "ibvs/sim/episode.hpp"
 #include "ibvs/sim/gantry.hpp"
 #include "ibvs/sim/planar_pose.hpp"
