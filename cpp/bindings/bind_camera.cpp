@@ -3,12 +3,14 @@
 // calibration-file reader python/ibvs/_calibration.py.
 #include "convert.hpp"
 #include "ibvs/camera_model.hpp"
+#include "py_servo.hpp"
 
 #include <pybind11/operators.h>
 #include <pybind11/stl.h>
 
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 namespace py = pybind11;
 using namespace ibvs;
@@ -89,7 +91,53 @@ Eigen::VectorXd dist_arg(py::handle obj) {
   return Eigen::Map<const Eigen::VectorXd>(a.data(), a.size());
 }
 
+// Pixel arrays of update_pixels: (N, 2) or (N, 1, 2), validated by the servo's validate_pixels.
+template <class PyLaw>
+ServoOutput pixel_update(PyLaw& s, py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj) {
+  const CArray a = as_array(px_obj, "pixels"), b = as_array(pxd_obj, "pixels_desired");
+  const auto px = points(a, "pixels");
+  const auto pxd = points(b, "pixels_desired");
+  const Eigen::Index n = s.servo.layout().n_points();
+  depths(depth_obj, "depth", n, s.z);
+  if (zd_obj.is_none()) {
+    s.zd = s.z;
+  } else {
+    depths(zd_obj, "depth_desired", n, s.zd);
+  }
+  if constexpr (std::is_same_v<PyLaw, py_servo::PyServo>) {
+    if (zd_obj.is_none() && s.servo.options().jacobian != InteractionMatrix::current)
+      throw py::value_error("depth_desired is required when jacobian is 'desired' or 'mean'");
+    s.servo.validate_pixels(px, s.z, pxd, s.zd);
+  } else {
+    s.servo.validate_pixels(px, s.z, pxd);
+  }
+  s.servo.update_pixels(px, s.z, pxd, s.zd, s.out);
+  return s.out;
+}
+
 }  // namespace
+
+ServoOutput py_servo::PyServo::update_pixels(py::handle px, py::handle depth, py::handle pxd, py::handle zd) {
+  return pixel_update(*this, px, depth, pxd, zd);
+}
+
+ServoOutput py_servo::PyPartitioned::update_pixels(py::handle px, py::handle depth, py::handle pxd, py::handle zd) {
+  return pixel_update(*this, px, depth, pxd, zd);
+}
+
+namespace {
+template <class Law>
+void set_camera_of(Law& s, py::handle camera) {
+  if (camera.is_none()) return;
+  if (!py::isinstance<CameraModel>(camera))
+    throw py::type_error("camera must be an ibvs.CameraModel or None, got " +
+                         std::string(py::str(py::type::handle_of(camera).attr("__name__"))));
+  s.set_camera(camera.cast<const CameraModel&>());
+}
+}  // namespace
+
+void py_servo::set_camera(Servo& s, py::handle camera) { set_camera_of(s, camera); }
+void py_servo::set_camera(PartitionedServo& s, py::handle camera) { set_camera_of(s, camera); }
 
 void bind_camera(py::module_& m) {
   py::class_<CameraModel>(m, "CameraModel", R"(Pinhole camera with lens distortion: normalised image coordinates <-> pixels.

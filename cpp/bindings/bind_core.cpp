@@ -323,6 +323,8 @@ slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(.
       .def_readonly("saturated", &ServoOutput::saturated, "True when the twist was scaled down to the speed limits.")
       .def_readonly("saturation_scale", &ServoOutput::saturation_scale,
                     "The uniform factor in (0, 1] applied to the twist (1 when not saturated).")
+      .def_readonly("pixel_error", &ServoOutput::pixel_error,
+                    "update_pixels: largest distance (pixels) between a point and its desired point; NaN after update.")
       .def("__repr__", [](const ServoOutput& o) {
         return "ServoResult(status=" + std::string(py::str(py::cast(o.status))) +
                ", error_norm=" + std::to_string(o.error_norm) + ", sigma_min=" + std::to_string(o.sigma_min) + ")";
@@ -331,14 +333,16 @@ slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(.
   py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
 
 Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
-      max_linear_speed=inf, max_angular_speed=inf)
+      max_linear_speed=inf, max_angular_speed=inf, camera=None)
   gain      gamma > 0 (1/s), or an AdaptiveGain (gain as a function of the error norm)
   damping   lambda >= 0: 0 = Moore-Penrose (SVD), > 0 = damped least squares
   jacobian  "current" J(f, z), "desired" J(f*, z*) or "mean" of the two
   max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
-            factor so that |T| and |w| stay within them (direction kept); inf = no limit)")
+            factor so that |T| and |w| stay within them (direction kept); inf = no limit
+  camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None)")
       .def(py::init([](const Layout& layout, py::handle gain, double damping, const std::string& jac,
-                       double polar_min_radius, bool diagnostics, double max_linear_speed, double max_angular_speed) {
+                       double polar_min_radius, bool diagnostics, double max_linear_speed, double max_angular_speed,
+                       py::handle camera) {
              ServoOptions o;
              set_gain(o, gain);
              o.damping = damping;
@@ -347,15 +351,18 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
              o.diagnostics = diagnostics;
              o.max_linear_speed = max_linear_speed;
              o.max_angular_speed = max_angular_speed;
-             return PyServo(layout, o);
+             PyServo s(layout, o);
+             py_servo::set_camera(s.servo, camera);
+             return s;
            }),
            py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
            py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true,
-           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit)
+           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
+           py::arg("camera") = py::none())
       .def_static(
           "automatic_hybrid",
           [](py::handle n, py::handle gain, double switch_radius, double damping, const std::string& jac,
-             bool diagnostics, double max_linear_speed, double max_angular_speed) {
+             bool diagnostics, double max_linear_speed, double max_angular_speed, py::handle camera) {
             ServoOptions o;
             set_gain(o, gain);
             o.damping = damping;
@@ -367,11 +374,14 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
             o.polar_min_radius = switch_radius;
             const int n_points = int_arg(n, "n_points");
             if (n_points < 1) throw py::value_error("n_points must be >= 1, got " + std::to_string(n_points));
-            return PyServo(Layout::polar(n_points), o);
+            PyServo s(Layout::polar(n_points), o);
+            py_servo::set_camera(s.servo, camera);
+            return s;
           },
           py::arg("n_points"), py::arg("gain"), py::arg("switch_radius") = default_switch_radius,
           py::arg("damping") = 0.0, py::arg("jacobian") = "current", py::arg("diagnostics") = true,
           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
+          py::arg("camera") = py::none(),
           R"(Automatic hybrid: each point polar while it and its desired point lie at least switch_radius
 (normalised units) from the principal point, Cartesian otherwise, re-decided every step. It is
 Servo(Layout.polar(n_points), gain, polar_min_radius=switch_radius, ...); ServoResult.polar_fallbacks
@@ -383,6 +393,16 @@ counts the points computed as Cartesian.)")
 uv, uv_desired (N, 2): current and desired points, normalised coordinates.
 depth, depth_desired: metres, > 0, scalar or (N,); depth_desired is needed for
 jacobian="desired" or "mean". Returns a ServoResult.)")
+      .def("update_pixels", &PyServo::update_pixels, py::arg("pixels"), py::arg("depth"), py::arg("pixels_desired"),
+           py::arg("depth_desired") = py::none(),
+           R"(One control step from pixels, with the servo's camera model (Servo(..., camera=...)).
+
+pixels, pixels_desired: (N, 2) or OpenCV's (N, 1, 2), as the sensor measures them (distorted);
+normalised by camera.normalize, then as update(). The result's pixel_error is the largest distance
+(pixels) between a point and its desired point: compare a tolerance in pixels with it.)")
+      .def_property_readonly(
+          "camera", [](const PyServo& s) -> py::object { return s.servo.camera() ? py::cast(*s.servo.camera()) : py::none(); },
+          "The CameraModel used by update_pixels (None if not given).")
       .def_property_readonly("layout", [](const PyServo& s) { return s.servo.layout(); })
       .def_property(
           "gain", [](const PyServo& s) { return gain_of(s.servo.options()); },

@@ -47,12 +47,14 @@ std::pair<int, int> segment_arg(py::handle s) {
 void bind_partitioned(py::module_& m) {
   py::class_<PyPartitioned>(m, "PartitionedServo", R"(Partitioned IBVS (Corke & Hutchinson, IEEE T-RA 2001).
 
-PartitionedServo(n_points, gain, damping=0.0, segment=(0, 1), max_linear_speed=inf, max_angular_speed=inf)
+PartitionedServo(n_points, gain, damping=0.0, segment=(0, 1), max_linear_speed=inf, max_angular_speed=inf,
+                 camera=None)
   wz   = gain * wrap(theta_z - theta_z*), theta_z the angle of the image segment from point i to j
   Tz   = gain * ln(sigma* / sigma),       sigma = sqrt(area of the point polygon, points in order)
   v_xy = -J_xy^+ (gain e + J_z v_z)       the Cartesian law for (Tx, Ty, wx, wy)
 n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesian error and Jacobian).)")
-      .def(py::init([](py::handle n, double gain, double damping, py::handle segment, double vmax, double wmax) {
+      .def(py::init([](py::handle n, double gain, double damping, py::handle segment, double vmax, double wmax,
+                       py::handle camera) {
              if (py::isinstance<py::bool_>(n) || !py::hasattr(n, "__index__"))
                throw py::type_error("n_points must be an int");
              PartitionedOptions o;
@@ -61,12 +63,22 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
              std::tie(o.segment_first, o.segment_second) = segment_arg(segment);
              o.max_linear_speed = vmax;
              o.max_angular_speed = wmax;
-             return PyPartitioned(n.cast<int>(), o);
+             PyPartitioned s(n.cast<int>(), o);
+             py_servo::set_camera(s.servo, camera);
+             return s;
            }),
            py::arg("n_points"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("segment") = py::make_tuple(0, 1),
-           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit)
+           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
+           py::arg("camera") = py::none())
       .def("update", &PyPartitioned::update, py::arg("uv"), py::arg("depth"), py::arg("uv_desired"),
            py::arg("depth_desired") = py::none(), "One control step (depth_desired is accepted and unused).")
+      .def("update_pixels", &PyPartitioned::update_pixels, py::arg("pixels"), py::arg("depth"),
+           py::arg("pixels_desired"), py::arg("depth_desired") = py::none(),
+           "One control step from pixels (N, 2) or (N, 1, 2) with the servo's camera model, as Servo.update_pixels.")
+      .def_property_readonly(
+          "camera",
+          [](const PyPartitioned& s) -> py::object { return s.servo.camera() ? py::cast(*s.servo.camera()) : py::none(); },
+          "The CameraModel used by update_pixels (None if not given).")
       .def_property_readonly("layout", [](const PyPartitioned& s) { return s.servo.layout(); })
       .def_property_readonly("n_points", [](const PyPartitioned& s) { return s.servo.layout().n_points(); })
       .def_property(

@@ -31,10 +31,11 @@ inline CArray as_array(py::handle obj, const char* name) {
                        std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
 }
 
-/// (N, 2) points as the 2 x N column-major matrix sharing the same memory.
+/// (N, 2) points, or OpenCV's (N, 1, 2), as the 2 x N column-major matrix sharing the same memory.
 inline Eigen::Map<const Points> points(const CArray& a, const char* name) {
-  if (a.ndim() != 2 || a.shape(1) != 2)
-    throw py::value_error(std::string(name) + " must have shape (N, 2), got " + shape_of(a));
+  const bool opencv = a.ndim() == 3 && a.shape(1) == 1 && a.shape(2) == 2;
+  if (!opencv && (a.ndim() != 2 || a.shape(1) != 2))
+    throw py::value_error(std::string(name) + " must have shape (N, 2) or (N, 1, 2), got " + shape_of(a));
   return {a.data(), 2, static_cast<Eigen::Index>(a.shape(0))};
 }
 

@@ -21,6 +21,8 @@ struct PyServo {
 
   /// validate() then update() on numpy arguments (bind_core.cpp).
   ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
+  /// validate_pixels() then update_pixels() (bind_camera.cpp).
+  ServoOutput update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj);
 };
 
 struct PyPartitioned {
@@ -31,6 +33,12 @@ struct PyPartitioned {
 
   /// validate() then update() on numpy arguments (bind_partitioned.cpp).
   ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
+  /// validate_pixels() then update_pixels() (bind_camera.cpp).
+  ServoOutput update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj);
 };
+
+/// `camera` in Python: None or an ibvs.CameraModel (TypeError naming camera otherwise).
+void set_camera(Servo& s, py::handle camera);
+void set_camera(PartitionedServo& s, py::handle camera);
 
 }  // namespace ibvs::py_servo

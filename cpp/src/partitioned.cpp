@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -116,6 +117,7 @@ void PartitionedServo::validate(const Eigen::Ref<const Points>& uv, const Eigen:
 Status PartitionedServo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                                 const Eigen::Ref<const Points>& uv_desired,
                                 const Eigen::Ref<const Eigen::VectorXd>& /*depth_desired*/, ServoOutput& out) noexcept {
+  out.pixel_error = std::numeric_limits<double>::quiet_NaN();  // set by update_pixels() after this
   const int n = layout_.n_points(), i = options_.segment_first, j = options_.segment_second;
   const Eigen::Index m = layout_.rows();
   bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && out.error.size() == m &&

@@ -212,6 +212,7 @@ Servo automatic_hybrid(int n_points, ServoOptions options, double switch_radius)
 Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                      const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                      ServoOutput& out) noexcept {
+  out.pixel_error = std::numeric_limits<double>::quiet_NaN();  // set by update_pixels() after this
   const int n = layout_.n_points();
   const Eigen::Index m = layout_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;

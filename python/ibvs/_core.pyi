@@ -179,6 +179,9 @@ class ServoResult:
     def saturated(self) -> bool: ...
     @property
     def saturation_scale(self) -> float: ...
+    @property
+    def pixel_error(self) -> float:
+        """update_pixels: largest point-to-goal distance in pixels; NaN after update."""
 
 class Servo:
     gain: Union[float, AdaptiveGain]
@@ -195,6 +198,7 @@ class Servo:
         diagnostics: bool = True,
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
+        camera: CameraModel | None = None,
     ) -> None: ...
     @staticmethod
     def automatic_hybrid(
@@ -206,10 +210,18 @@ class Servo:
         diagnostics: bool = True,
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
+        camera: CameraModel | None = None,
     ) -> Servo: ...
     def update(
         self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
-    ) -> ServoResult: ...
+    ) -> ServoResult:
+        """uv, uv_desired (N, 2) or (N, 1, 2) normalised; depth metres."""
+    def update_pixels(
+        self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
+    ) -> ServoResult:
+        """pixels, pixels_desired (N, 2) or (N, 1, 2) as measured; normalised with the servo's camera."""
+    @property
+    def camera(self) -> CameraModel | None: ...
     @property
     def layout(self) -> Layout: ...
     @property
@@ -229,10 +241,16 @@ class PartitionedServo:
         segment: Tuple[int, int] = (0, 1),
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
+        camera: CameraModel | None = None,
     ) -> None: ...
     def update(
         self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult: ...
+    def update_pixels(
+        self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
+    ) -> ServoResult: ...
+    @property
+    def camera(self) -> CameraModel | None: ...
     @property
     def layout(self) -> Layout: ...
     @property

@@ -10,6 +10,7 @@
 #include "sim_cases.hpp"
 
 #include <atomic>
+#include <limits>
 #include <new>
 
 namespace {
@@ -178,6 +179,41 @@ void joint_mapping_allocates_nothing() {
         CHECK(st != Status::invalid_input && bad == Status::invalid_input);
       }
     }
+
+// CameraModel::project / normalize (every distortion, Newton included) and the
+// pixel API of both servos, refused pixels included.
+void pixels_allocate_nothing() {
+  Eigen::Matrix3d K;
+  K << 600, 0, 320, 0, 601, 240, 0, 0, 1;
+  Eigen::VectorXd pb(5), fe(4);
+  pb << -0.4, 0.05, 0.001, -0.0005, 0.0;
+  fe << -0.013, 0.021, -0.012, 0.003;
+  const CameraModel cams[4] = {CameraModel::normalized(0.3), CameraModel::afma6(),
+                               CameraModel::from_opencv(K, pb, 640, 480),
+                               CameraModel::from_opencv(K, fe, 640, 480, true)};
+  for (const CameraModel& cam : cams) {
+    Points uv(2, 4), uvd(2, 4), px(2, 4), pxd(2, 4), back(2, 4);
+    uvd << 0.1, -0.1, -0.1, 0.1, 0.1, 0.1, -0.1, -0.1;
+    uv << 0.16, -0.05, -0.16, 0.05, 0.05, 0.16, -0.05, -0.16;
+    Servo servo(Layout::stacked(4), {});
+    PartitionedServo part(4, {});
+    servo.set_camera(cam);
+    part.set_camera(cam);
+    ServoOutput out(servo.layout()), pout(part.layout());
+    const Eigen::VectorXd z = Eigen::VectorXd::Constant(4, 0.6);
+    const long before = news.load();
+    Eigen::internal::set_is_malloc_allowed(false);
+    int failed = cam.project(uv, px) + cam.project(uvd, pxd) + cam.normalize(px, back);
+    const Status a = servo.update_pixels(px, z, pxd, z, out);
+    const Status b = part.update_pixels(px, z, pxd, z, pout);
+    px(0, 1) = std::numeric_limits<double>::quiet_NaN();  // refused pixel: no allocation either
+    const Status c = servo.update_pixels(px, z, pxd, z, out);
+    failed += cam.normalize(px, back);
+    Eigen::internal::set_is_malloc_allowed(true);
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in CameraModel / update_pixels", __FILE__, __LINE__,
+                      cam.describe() + ": " + std::to_string(during));
+    CHECK(failed == 1 && a != Status::invalid_input && b != Status::invalid_input && c == Status::invalid_input);
   }
 }
 
@@ -186,6 +222,7 @@ void run_tests() {
   partitioned_allocates_nothing();
   joint_mapping_allocates_nothing();
   robot_episode_allocates_nothing();
+  pixels_allocate_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

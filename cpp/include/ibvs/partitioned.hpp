@@ -65,11 +65,21 @@ class PartitionedServo {
                 const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                 ServoOutput& out) noexcept;
 
+  /// Pixels in, twist out, as Servo's (cpp/src/pixels.cpp).
+  void set_camera(const CameraModel& camera);
+  const CameraModel* camera() const noexcept { return pixels_.camera(); }
+  void validate_pixels(const Eigen::Ref<const Points>& pixels, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                       const Eigen::Ref<const Points>& pixels_desired) const;
+  Status update_pixels(const Eigen::Ref<const Points>& pixels, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                       const Eigen::Ref<const Points>& pixels_desired,
+                       const Eigen::Ref<const Eigen::VectorXd>& depth_desired, ServoOutput& out) noexcept;
+
  private:
   struct Work;
   Layout layout_;
   PartitionedOptions options_;
   std::unique_ptr<Work> work_;
+  detail::PixelFrontEnd pixels_;  // camera and normalised points of update_pixels()
 };
 
 }  // namespace ibvs

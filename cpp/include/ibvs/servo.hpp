@@ -7,12 +7,15 @@
 //  * update(...) is noexcept, allocates nothing and returns a Status.
 #pragma once
 
+#include "ibvs/camera_model.hpp"
 #include "ibvs/gain.hpp"
 #include "ibvs/layout.hpp"
+#include "ibvs/pixel_front_end.hpp"
 
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 
 namespace ibvs {
@@ -72,6 +75,9 @@ struct ServoOutput {
   double gain = 0.0;               ///< the gain applied this step (constant or adaptive_gain(error_norm))
   bool saturated = false;          ///< the twist was scaled down to the speed limits
   double saturation_scale = 1.0;   ///< that factor, in (0, 1]; 1 when not saturated
+  /// update_pixels(): the largest distance, in pixels, between a measured point and its
+  /// desired point (a tolerance in pixels compares with this); NaN after update().
+  double pixel_error = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Largest layout (rows) whose update() is guaranteed allocation-free on every
@@ -124,11 +130,28 @@ class Servo {
     return update(in.uv, in.depth, in.uv_desired, in.depth_desired, out);
   }
 
+  /// Pixels in, twist out (cpp/src/pixels.cpp): the camera model that update_pixels() uses.
+  /// Allocates its buffers; throws std::invalid_argument for an invalid model.
+  void set_camera(const CameraModel& camera);
+  const CameraModel* camera() const noexcept { return pixels_.camera(); }  ///< nullptr until set_camera()
+  /// Throws std::invalid_argument naming the first bad argument: no camera, a pixel (2 x N, as
+  /// the sensor delivers it) that the camera model cannot normalise, then validate()'s checks.
+  void validate_pixels(const Eigen::Ref<const Points>& pixels, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                       const Eigen::Ref<const Points>& pixels_desired,
+                       const Eigen::Ref<const Eigen::VectorXd>& depth_desired) const;
+  /// One control step from pixels: CameraModel::normalize of pixels and pixels_desired, then
+  /// update(); out.pixel_error is the largest point-to-goal distance in pixels. No camera, or a
+  /// pixel without an inverse: Status::invalid_input, zero twist. Noexcept, allocation-free.
+  Status update_pixels(const Eigen::Ref<const Points>& pixels, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                       const Eigen::Ref<const Points>& pixels_desired,
+                       const Eigen::Ref<const Eigen::VectorXd>& depth_desired, ServoOutput& out) noexcept;
+
  private:
   struct Kernel;  // sized workspace: fixed 8 or 16 rows, or dynamic
   Layout layout_;
   ServoOptions options_;
   std::unique_ptr<Kernel> kernel_;
+  detail::PixelFrontEnd pixels_;  // camera and normalised points of update_pixels()
 };
 
 /// Default switching radius of the automatic hybrid (normalised units: 50 px
