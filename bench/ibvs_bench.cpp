@@ -2,7 +2,8 @@
 // real-time rates. A plain main() program: no benchmark framework.
 //
 //   ibvs-bench                        components (N=4, each layout), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz,
-//                                     600-frame simulated gantry episodes, robot (JointMapping, 6/7/16 joints)
+//                                     600-frame simulated gantry episodes, robot (JointMapping, 6/7/16 joints),
+//                                     camera model / pixel step / estimators (N=4)
 //   ibvs-bench --paced 1000 --duration 10
 //   ibvs-bench --sections components --layout stacked --n 4 --iterations 1000000
 //   ibvs-bench --json                 one JSON line on stdout (the table goes to stderr)
@@ -154,7 +155,7 @@ std::vector<std::string> split(const std::string& s) {
                "  --spin US          paced: sleep until US microseconds before each deadline, then spin (default 0)\n"
                "  --realtime         paced: try SCHED_FIFO 80 and mlockall (needs CAP_SYS_NICE)\n"
                "  --episodes K       simulated 600-frame gantry episodes per episode case (default 50)\n"
-               "  --sections S[,S..] components, growth, paced, episode, robot (default all five)\n"
+               "  --sections S[,S..] components, growth, paced, episode, robot, camera (default all six)\n"
                "  --json             one JSON line on stdout; the human table goes to stderr\n");
   std::exit(code);
 }
@@ -228,10 +229,10 @@ Options parse(int argc, char** argv) {
   if (o.warmup < 0) o.warmup = std::max(1000L, o.iterations / 10);
   if (o.sections.empty()) {
     if (o.rates_given && !o.layouts_given && !o.ns_given) o.sections = {"paced"};
-    else o.sections = {"components", "growth", "paced", "episode", "robot"};
+    else o.sections = {"components", "growth", "paced", "episode", "robot", "camera"};
   }
   for (const auto& s : o.sections)
-    if (s != "components" && s != "growth" && s != "paced" && s != "episode" && s != "robot") {
+    if (s != "components" && s != "growth" && s != "paced" && s != "episode" && s != "robot" && s != "camera") {
       std::fprintf(stderr, "ibvs-bench: unknown section '%s'\n", s.c_str());
       usage(2);
     }
@@ -750,6 +751,101 @@ void bench_episode(const char* name, double damping, double noise, int latency, 
   g_episodes.push_back(c);
 }
 
+// ---------------------------------------------------------- camera / estimators --
+/// The per-frame perception path around Servo::update, N = 4 points: the
+/// camera model both ways (ViSP's closed forms, plumb_bob and equidistant by
+/// Newton), the pixel step Servo::update_pixels, DepthEstimator::update and
+/// PlanarPose::estimate; frames vary (Frames), so the filters never settle.
+void bench_camera(const Options& o) {
+  const Frames fr(4);
+  Eigen::Matrix3d K;
+  K << 600, 0, 320, 0, 601, 240, 0, 0, 1;
+  Eigen::VectorXd pb(5), fe(4);
+  pb << -0.28, 0.07, 0.001, -0.0005, 0.01;
+  fe << -0.013, 0.021, -0.012, 0.003;
+  const ibvs::CameraModel cams[3] = {ibvs::CameraModel::afma6(), ibvs::CameraModel::from_opencv(K, pb, 640, 480),
+                                     ibvs::CameraModel::from_opencv(K, fe, 640, 480, true)};
+  std::vector<ibvs::Points> px[3];
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < Frames::count; ++k) {
+      ibvs::Points p(2, 4);
+      cams[c].project(fr.uv[k], p);
+      px[c].push_back(p);
+    }
+  ibvs::Points out(2, 4);
+  for (int c = 0; c < 3; ++c) {
+    const char* d = to_string(cams[c].distortion());
+    const char* route = c == 0 ? "closed form" : "Newton";
+    Result& r = add("camera", "CameraModel::normalize", d, 4, 0, route, 0.0, -1);
+    time_case(r, o, [&](long i) {
+      keep(cams[c].normalize(px[c][static_cast<std::size_t>(i & (Frames::count - 1))], out));
+      keep(out);
+    });
+    Result& q = add("camera", "CameraModel::project", d, 4, 0, "closed form", 0.0, -1);
+    time_case(q, o, [&](long i) {
+      keep(cams[c].project(fr.uv[static_cast<std::size_t>(i & (Frames::count - 1))], out));
+      keep(out);
+    });
+  }
+  {
+    const Layout layout = make_layout("stacked", 4);
+    ibvs::Servo servo(layout, servo_options(o.gain, o.damping, false));
+    servo.set_camera(cams[1]);
+    ibvs::ServoOutput so(layout);
+    std::vector<ibvs::Points> pxd;
+    for (int k = 0; k < Frames::count; ++k) {
+      ibvs::Points p(2, 4);
+      cams[1].project(fr.uvd[k], p);
+      pxd.push_back(p);
+    }
+    Result& r = add("camera", "Servo::update_pixels damped", "stacked", 4, layout.rows(), "Newton+LLT", o.damping, 0);
+    time_case(r, o, [&](long i) {
+      const auto k = static_cast<std::size_t>(i & (Frames::count - 1));
+      servo.update_pixels(px[1][k], fr.z[k], pxd[k], fr.zd[k], so);
+      keep(so.velocity);
+    });
+  }
+  {
+    ibvs::DepthEstimatorOptions eo;
+    eo.point_noise = 0.5 / 600.0;
+    ibvs::DepthEstimator est(Eigen::VectorXd::Constant(4, 0.8), eo);
+    ibvs::Twist d;
+    d << 0.004, -0.002, 0.003, 0.001, -0.002, 0.004;  // twist * dt
+    const ibvs::Pose M = ibvs::se3_exp(d);
+    Result& r = add("camera", "DepthEstimator::update (4x4 motion)", "-", 4, 0, "EKF", 0.0, -1);
+    time_case(r, o, [&](long i) {
+      keep(est.update(fr.uv[static_cast<std::size_t>(i & (Frames::count - 1))], M));
+      keep(est.depth());
+    });
+  }
+  {
+    const ibvs::sim::Target t = ibvs::sim::Target::square(0.1);
+    const ibvs::PlanarPose pp(t.points);
+    std::vector<ibvs::Points> seen;
+    for (int k = 0; k < Frames::count; ++k) {  // the square seen from frame-dependent poses
+      const double a = 0.1 * k;
+      ibvs::Twist x;
+      x << 0.02 * std::cos(a), 0.02 * std::sin(a), 0.6, 0.1 * std::sin(a), 0.1 * std::cos(a), a;
+      ibvs::Pose T = ibvs::Pose::Identity();
+      T.topLeftCorner<3, 3>() = ibvs::se3_exp(x).topLeftCorner<3, 3>();
+      T.topRightCorner<3, 1>() = x.head<3>();
+      ibvs::Points p(2, 4);
+      for (int i = 0; i < 4; ++i) {
+        const Eigen::Vector3d q = T.topLeftCorner<3, 3>() * t.points.col(i) + T.topRightCorner<3, 1>();
+        p.col(i) = q.head<2>() / q(2);
+      }
+      seen.push_back(p);
+    }
+    ibvs::Pose T;
+    Eigen::VectorXd z(4);
+    Result& r = add("camera", "PlanarPose::estimate", "-", 4, 0, "DLT+GN", 0.0, -1);
+    time_case(r, o, [&](long i) {
+      keep(pp.estimate(seen[static_cast<std::size_t>(i & (Frames::count - 1))], T, z));
+      keep(z);
+    });
+  }
+}
+
 // ---------------------------------------------------------------- output ---
 std::string cpu_model() {
   std::ifstream f("/proc/cpuinfo");
@@ -774,8 +870,14 @@ std::string json_escape(const std::string& s) {
 
 void print_row(std::FILE* f, const Result& r) {
   char what[48];
-  if (r.section == "robot") std::snprintf(what, sizeof what, "%d joints, J 6x%d", r.n, r.n);
-  else std::snprintf(what, sizeof what, "%s(%d) %dx6", r.layout.c_str(), r.n, r.rows);
+  if (r.section == "robot")
+    std::snprintf(what, sizeof what, "%d joints, J 6x%d", r.n, r.n);
+  else if (r.rows > 0)
+    std::snprintf(what, sizeof what, "%s(%d) %dx6", r.layout.c_str(), r.n, r.rows);
+  else if (r.layout == "-")
+    std::snprintf(what, sizeof what, "N = %d", r.n);
+  else
+    std::snprintf(what, sizeof what, "%s, N = %d", r.layout.c_str(), r.n);
   std::fprintf(f, "  %-36s %-20s %9.3f %9.3f %9.2f %9.3f %12.0f %7.2g\n", r.name.c_str(), what, r.median_us, r.p99_us,
                r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call);
 }
@@ -881,6 +983,14 @@ int main(int argc, char** argv) {
         print_row(table, g_results.back());
         std::fflush(table);
       }
+  }
+
+  if (has(o.sections, "camera")) {
+    print_header(table, "Camera model, pixel step and estimators (N = 4; camera models: ViSP afma6, plumb_bob, equidistant)");
+    const std::size_t first = g_results.size();
+    bench_camera(o);
+    for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
+    std::fflush(table);
   }
 
   if (o.json) {

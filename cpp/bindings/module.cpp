@@ -7,6 +7,7 @@ namespace py = pybind11;
 
 void bind_core(py::module_& m);  // bind_core.cpp
 void bind_camera(py::module_& m);  // bind_camera.cpp
+void bind_estimators(py::module_& m);  // bind_estimators.cpp
 void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
@@ -16,6 +17,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = IBVS_VERSION;
   bind_core(m);
   bind_camera(m);
+  bind_estimators(m);
   bind_sim(m);
   bind_partitioned(m);
   bind_robot(m);

@@ -3,7 +3,9 @@
 Conventions (everywhere the same):
   camera frame x right, y down, z forward; camera twist v = (Tx, Ty, Tz, wx, wy, wz)
   in the camera frame (m/s, rad/s); image points in normalised coordinates
-  (unit focal length) with shape (N, 2); depths in metres; angles in radians.
+  (unit focal length) with shape (N, 2) or (N, 1, 2); depths in metres; angles in
+  radians. Pixels (u right, v down) only through CameraModel (normalize / project,
+  Servo(..., camera=).update_pixels); poses are 4x4 "a <- b" transforms.
   Robots: base frame b, end effector e, camera c; eMc = end-effector <- camera (4x4);
   joint_velocities / JointMapping turn the camera twist into joint velocities.
 """
@@ -16,10 +18,12 @@ from pathlib import Path
 from ._core import (
     AdaptiveGain,
     CameraModel,
+    DepthEstimator,
     JointMapping,
     JointMappingResult,
     Layout,
     PartitionedServo,
+    PlanarPose,
     Representation,
     Servo,
     ServoResult,
@@ -42,10 +46,12 @@ from ._core import (
 __all__ = [
     "AdaptiveGain",
     "CameraModel",
+    "DepthEstimator",
     "JointMapping",
     "JointMappingResult",
     "Layout",
     "PartitionedServo",
+    "PlanarPose",
     "Representation",
     "Servo",
     "ServoResult",

@@ -152,6 +152,48 @@ class CameraModel:
         """(K, dist) for OpenCV (cv2.fisheye for equidistant)."""
     def __eq__(self, other: object) -> bool: ...
 
+class DepthEstimator:
+    """Online depth per point from successive frames and the camera's motion (an EKF on (x, y, 1/z)).
+    Normalised points, depths in metres, motion = pose of the current camera in the previous camera
+    frame (4x4, metres) or twist * dt (6,)."""
+
+    def __init__(
+        self,
+        prior: _ArrayLike,
+        point_noise: float = 0.0,
+        prior_uncertainty: float = 1.0,
+        process_noise: float = 1e-4,
+        position_noise: float = 1e-6,
+        min_depth: float = 1e-3,
+        max_depth_ratio: float = 100.0,
+    ) -> None: ...
+    def update(self, uv: _ArrayLike, motion: _ArrayLike) -> Tuple[_FloatArray, _FloatArray]:
+        """-> (depth (N,) m, variance (N,) m^2)."""
+    def reset(self, prior: _ArrayLike | None = None) -> None: ...
+    @property
+    def depth(self) -> _FloatArray: ...
+    @property
+    def variance(self) -> _FloatArray: ...
+    @property
+    def prior(self) -> _FloatArray: ...
+    @property
+    def initialized(self) -> bool: ...
+    @property
+    def restarts(self) -> int: ...
+    @property
+    def n_points(self) -> int: ...
+
+class PlanarPose:
+    """Camera <- target pose and depths of a planar target (points (N, 3), z = 0, metres)."""
+
+    def __init__(self, points: _ArrayLike, iterations: int = 5) -> None: ...
+    def estimate(self, uv: _ArrayLike) -> Tuple[_FloatArray, _FloatArray, bool]:
+        """Normalised uv -> (pose 4x4 camera <- target, depth (N,), degenerate)."""
+    @property
+    def points(self) -> _FloatArray: ...
+    @property
+    def iterations(self) -> int: ...
+
 class ServoResult:
     @property
     def status(self) -> Status: ...

@@ -179,6 +179,8 @@ void joint_mapping_allocates_nothing() {
         CHECK(st != Status::invalid_input && bad == Status::invalid_input);
       }
     }
+  }
+}
 
 // CameraModel::project / normalize (every distortion, Newton included) and the
 // pixel API of both servos, refused pixels included.
@@ -217,7 +219,39 @@ void pixels_allocate_nothing() {
   }
 }
 
+// DepthEstimator::update (both motion forms, a restart, refused input) and
+// PlanarPose::estimate (a pose and a degenerate image).
+void estimators_allocate_nothing() {
+  Points uv(2, 4), line(2, 4);
+  uv << 0.1, -0.1, -0.1, 0.1, 0.1, 0.1, -0.1, -0.1;
+  line << 0.0, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0, 0.0;
+  DepthEstimatorOptions eo;
+  eo.point_noise = 1e-3;
+  DepthEstimator est(Eigen::VectorXd::Constant(4, 0.8), eo);
+  const PlanarPose pp(sim::Target::square(0.2).points);
+  Twist d;
+  d << 0.004, -0.002, 0.003, 0.001, -0.002, 0.004;
+  const Pose M = se3_exp(d);
+  Pose through = Pose::Identity(), T;
+  through(2, 3) = 5.0;
+  Eigen::VectorXd z(4);
+  const Eigen::VectorXd prior = Eigen::VectorXd::Constant(4, 0.7);
+  const long before = news.load();
+  Eigen::internal::set_is_malloc_allowed(false);
+  bool ok = est.update(uv, M) && est.update(uv, d, 1.0 / 60.0) && est.update(uv, M) && est.update(uv, through);
+  const int restarts = est.restarts();
+  ok = ok && !est.update(uv.leftCols(3), M);
+  est.reset(prior);
+  ok = ok && est.update(uv, M) && pp.estimate(uv, T, z) && !pp.estimate(line, T, z);
+  Eigen::internal::set_is_malloc_allowed(true);
+  const long during = news.load() - before;
+  ibvs_test::report(during == 0, "no allocation in DepthEstimator::update / PlanarPose::estimate", __FILE__, __LINE__,
+                    std::to_string(during));
+  CHECK(ok && restarts == 4 && est.depth().allFinite() && z.allFinite());
+}
+
 void run_tests() {
+  estimators_allocate_nothing();
   episode_allocates_nothing();
   partitioned_allocates_nothing();
   joint_mapping_allocates_nothing();

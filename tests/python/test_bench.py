@@ -122,6 +122,22 @@ def test_cpp_bench_json(cpp_bench: str) -> None:
         assert e["allocs_per_episode"] == 0 and 0.0 < e["median_ms"] <= e["max_ms"]
 
 
+def test_cpp_bench_camera_section(cpp_bench: str) -> None:
+    """The perception path is timed: camera model both ways (three distortions), the pixel step and
+    the two estimators, none of them allocating."""
+    out = subprocess.run([cpp_bench, "--iterations", "300", "--sections", "camera", "--json"], check=True,
+                         capture_output=True, text=True, timeout=300).stdout
+    cases = json.loads(out)["cases"]
+    assert {c["name"] for c in cases} == {"CameraModel::normalize", "CameraModel::project",
+                                          "Servo::update_pixels damped", "DepthEstimator::update (4x4 motion)",
+                                          "PlanarPose::estimate"}
+    assert {c["layout"] for c in cases if c["name"] == "CameraModel::normalize"} == {"visp", "plumb_bob",
+                                                                                      "equidistant"}
+    for c in cases:
+        assert c["section"] == "camera" and c["allocs_per_call"] == 0, c
+        assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
+
+
 def test_cpp_bench_undamped_dynamic_kernel_allocates_nothing(cpp_bench: str) -> None:
     # Rows 32 and 256 take the dynamic kernel; its damping = 0 (QR + SVD) route once called malloc
     # 12 times per step inside Eigen's Householder QR (found by ibvs-bench's malloc counter).

@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import ibvs
 
@@ -98,3 +100,17 @@ def test_bad_input(camera):
     for servo in laws(folding):
         with pytest.raises(ValueError, match=r"pixels\[1\] = .*no inverse"):
             servo.update_pixels(far, 1.0, folding.project(UV_DESIRED))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-1e4, 1e4), min_size=8, max_size=8), st.floats(0.01, 100))
+def test_update_pixels_finite_or_refused(values, depth):
+    """Any finite pixels give a finite twist or a ValueError, on a lens that folds."""
+    camera = ibvs.CameraModel.from_opencv(K, [-0.4, 0.05, 0.0, 0.0], 640, 480)
+    servo = ibvs.Servo(ibvs.Layout.stacked(4), gain=0.5, damping=0.01, camera=camera)
+    try:
+        r = servo.update_pixels(np.reshape(values, (4, 2)), depth, camera.project(UV_DESIRED))
+    except ValueError as e:
+        assert "pixels" in str(e) or "uv" in str(e)
+    else:
+        assert np.isfinite(r.velocity).all() and np.isfinite(r.pixel_error)

@@ -4,9 +4,11 @@
 #pragma once
 
 #include "ibvs/camera_model.hpp"
+#include "ibvs/depth_estimator.hpp"
 #include "ibvs/features.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/pinv.hpp"
+#include "ibvs/planar_pose.hpp"
 #include "ibvs/robot_mapping.hpp"
 #include "ibvs/se3.hpp"
 #include "ibvs/servo.hpp"

@@ -86,7 +86,19 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   if (layout_of(servo_).n_points() != n)
     throw std::invalid_argument("ibvs: servo layout has " + std::to_string(layout_of(servo_).n_points()) +
                                 " points but the target has " + std::to_string(n));
-  if (options_.depth == DepthMode::pose) estimator_.emplace(target_.points);
+  if (options_.depth == DepthMode::pose) {
+    try {
+      pose_estimator_.emplace(target_.points);
+    } catch (const std::invalid_argument& e) {  // say which option needs the planar target
+      throw std::invalid_argument(std::string("ibvs: the pose depth mode: target ") + (e.what() + 6));
+    }
+  }
+  if (options_.depth == DepthMode::estimated) {  // its prior is set by prepare(), from the goal
+    DepthEstimatorOptions eo;
+    eo.point_noise = options_.noise / std::min(camera_.px(), camera_.py());
+    eo.min_depth = options_.min_depth;
+    depth_estimator_.emplace(Eigen::VectorXd::Ones(n), eo);
+  }
   world_points_ = target_.world_points();
   centroid_ = target_.points.rowwise().mean();
   const int slots = options_.latency + 1;
@@ -96,8 +108,6 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   uv_.resize(2, n);
   z_.resize(n);
   desired_distance_.resize(4, n);
-  est_.resize(3, n);
-  est_cov_.resize(n);
   ring_motion_.assign(static_cast<std::size_t>(slots), Pose::Identity());
   const long frames = std::lround(options_.duration * camera_.fps());
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
@@ -155,6 +165,10 @@ void Episode::prepare(const Pose& goal) {
     desired_distance_.col(i) << m(0) - camera_.u_min(), camera_.u_max() - m(0), m(1) - camera_.v_min(),
         camera_.v_max() - m(1);
     result_.depth_desired(i) = p(2);
+  }
+  if (depth_estimator_) {  // prior: the desired depths times depth_scale (z_ is scratch here: no allocation)
+    z_ = options_.depth_scale * result_.depth_desired;
+    depth_estimator_->reset(z_);
   }
 }
 
@@ -288,22 +302,18 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
       case DepthMode::exact: z_ = ring_depth_.row(seen).transpose(); break;
       case DepthMode::desired: z_ = result_.depth_desired; break;
       case DepthMode::estimated:
-        if (k == 0) {
-          const double r = depth_measurement_variance();
-          for (int i = 0; i < n; ++i) {
-            const double rho = 1.0 / (options_.depth_scale * result_.depth_desired(i));
-            est_.col(i) << uv_.col(i), rho;
-            est_cov_[i] = Eigen::Vector3d(r, r, rho * rho).asDiagonal();  // 100 % prior uncertainty on rho
-          }
-        } else if (k > options_.latency) {  // a new frame reached the controller
-          estimate_depth(k - options_.latency);
+        if (k == 0) {  // from the prior, with the first frame's points
+          depth_estimator_->reset();
+          depth_estimator_->update(uv_, Pose(Pose::Identity()));
+        } else if (k > options_.latency) {  // a new frame reached the controller: the motion since the one before
+          depth_estimator_->update(uv_, ring_motion_[static_cast<std::size_t>((k - options_.latency - 1) % slots)]);
         }
-        z_ = est_.row(2).transpose().cwiseInverse();
+        z_ = depth_estimator_->depth();
         break;
       case DepthMode::pose: {
         // From the image alone (the homography step needs no initial guess);
         // on failure the last estimate is kept.
-        have_est = estimator_->estimate(uv_, T_est) || have_est;
+        have_est = pose_estimator_->estimate(uv_, T_est) || have_est;
         for (int i = 0; i < n; ++i)
           z_(i) = have_est ? (T_est.row(2).head<3>().dot(target_.points.col(i)) + T_est(2, 3)) : nan;
         break;
@@ -417,63 +427,6 @@ double Episode::boundary_tz(int seen) const noexcept {
   zbar /= n;
   const double tz = -options_.boundary_gain * zbar * zbar * dU_dTz;
   return std::isfinite(tz) ? tz : 0.0;
-}
-
-// Variance of a measured point in normalised units: the pixel noise, plus a
-// floor (about 0.01 px at f = 1090 px) for what the model leaves out (the
-// distortion model's kud / kdu mismatch, rounding).
-double Episode::depth_measurement_variance() const noexcept {
-  const double sigma = options_.noise / std::min(camera_.px(), camera_.py());
-  return sigma * sigma + 1e-10;
-}
-
-// One predict-update step of each point's (x, y, rho) Kalman filter (see
-// episode.hpp) from the controller's frame `seen` - 1 to frame `seen` (uv_),
-// across the camera's motion M between them (new camera pose in the old frame).
-void Episode::estimate_depth(int seen) noexcept {
-  const int slots = options_.latency + 1;
-  const Pose& M = ring_motion_[static_cast<std::size_t>((seen - 1) % slots)];
-  const Eigen::Matrix3d Rt = M.topLeftCorner<3, 3>().transpose();
-  const Eigen::Vector3d t = M.topRightCorner<3, 1>();
-  const double r = depth_measurement_variance();
-  for (int i = 0; i < target_.size(); ++i) {
-    const Eigen::Vector3d s0 = est_.col(i);
-    const double x = s0(0), y = s0(1), rho = s0(2);
-    // predict: the point (x, y, 1) / rho in the old frame, seen from the new one
-    const Eigen::Vector3d P = Eigen::Vector3d(x, y, 1.0) / rho;
-    const Eigen::Vector3d Q = Rt * (P - t);
-    const double iz = 1.0 / Q(2);
-    Eigen::Vector3d s(Q(0) * iz, Q(1) * iz, iz);
-    // its Jacobian d s / d s0 = d s / d Q * R^T * d P / d s0
-    Eigen::Matrix3d dP;
-    dP << 1.0 / rho, 0.0, -x / (rho * rho),  //
-        0.0, 1.0 / rho, -y / (rho * rho),     //
-        0.0, 0.0, -1.0 / (rho * rho);
-    Eigen::Matrix3d dS;
-    dS << iz, 0.0, -Q(0) * iz * iz,  //
-        0.0, iz, -Q(1) * iz * iz,     //
-        0.0, 0.0, -iz * iz;
-    const Eigen::Matrix3d F = dS * Rt * dP;
-    Eigen::Matrix3d Pcov = F * est_cov_[i] * F.transpose();
-    Pcov(0, 0) += 1e-12;
-    Pcov(1, 1) += 1e-12;
-    Pcov(2, 2) += 1e-8 * rho * rho;  // 0.01 % relative process noise per frame
-    // update with the measured point (H = [I2 0])
-    const Eigen::Matrix2d S = Pcov.topLeftCorner<2, 2>() + r * Eigen::Matrix2d::Identity();
-    const Eigen::Matrix<double, 3, 2> K = Pcov.leftCols<2>() * S.inverse();
-    s += K * (uv_.col(i) - s.head<2>());
-    Pcov -= K * Pcov.topRows<2>();
-    Pcov = 0.5 * (Pcov + Pcov.transpose()).eval();  // keep it symmetric
-    // A prediction behind the camera (a depth estimate far too small) or a
-    // non-finite filter carries no information: restart from the prior.
-    if (!(Q(2) > 0.0) || !s.allFinite() || !Pcov.allFinite()) {
-      s << uv_.col(i), 1.0 / result_.depth_desired(i);
-      Pcov = Eigen::Vector3d(r, r, s(2) * s(2)).asDiagonal();
-    }
-    s(2) = std::clamp(s(2), 1.0 / (100.0 * result_.depth_desired(i)), 1.0 / options_.min_depth);
-    est_.col(i) = s;
-    est_cov_[i] = Pcov;
-  }
 }
 
 EpisodeResult run_episode(AnyServo servo, const CameraModel& camera, const Target& target, const Pose& start,

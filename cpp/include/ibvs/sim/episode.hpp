@@ -55,33 +55,24 @@
 // the image contracts towards the principal point; far from the border U = 0
 // and the control law is untouched.
 //
-// Depth estimate (DepthMode::estimated): per point, an extended Kalman filter
-// on the state s = (x, y, rho): the point's normalised image coordinates and
-// its inverse depth rho = 1/z. Prediction moves the point (x, y, 1) / rho by
-// the camera's motion between the two frames, as the robot's odometry knows it
-// (free flight: the exponential of the commanded twist; robot: the forward
-// kinematics at the two joint vectors), and re-projects it: exact, where
-// integrating the interaction matrix (eq. 3 in rho, with
-// rhodot = rho^2 Tz + rho (wx y - wy x)) over the period is not. The
-// measurement is the point (x, y) itself, with the pixel noise's variance plus
-// a floor of about 0.01 px. Filtering the position, not differencing raw
-// frames, is what keeps the estimate unbiased under noise: the twist was
-// computed from the previous noisy frame, so the difference of two raw frames
-// (an "image velocity" measurement) carries noise correlated with the motion
-// it is divided by, which drove rho to its clamp at 0.5 px.
-// Initialised with rho = 1 / (depth_scale z*) at 100 % uncertainty and the
-// first frame's points; process noise 0.01 % of rho and 1e-6 in x, y per frame;
-// rho clamped to [1 / (100 z*), 1 / min_depth]; a filter that turns non-finite
-// restarts from that prior.
+// Depth estimate (DepthMode::estimated): ibvs::DepthEstimator (one extended
+// Kalman filter per point on (x, y, 1/z), see ibvs/depth_estimator.hpp) fed
+// with the controller's points and the camera's motion between its frames as
+// the robot's odometry knows it (free flight: the exponential of the commanded
+// twist; robot: the forward kinematics at the two joint vectors). Its prior is
+// depth_scale z*, point_noise the pixel noise over min(px, py), the depths kept
+// within [min_depth, 100 depth_scale z*]. Depth mode "pose": ibvs::PlanarPose
+// on the controller's points (the last estimate is kept when one is degenerate).
 //
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
 
-#include "ibvs/partitioned.hpp"
-#include "ibvs/servo.hpp"
 #include "ibvs/camera_model.hpp"
+#include "ibvs/depth_estimator.hpp"
+#include "ibvs/partitioned.hpp"
+#include "ibvs/planar_pose.hpp"
+#include "ibvs/servo.hpp"
 #include "ibvs/sim/gantry.hpp"
-#include "ibvs/sim/planar_pose.hpp"
 #include "ibvs/sim/robot.hpp"
 #include "ibvs/sim/target.hpp"
 
@@ -232,8 +223,6 @@ class Episode {
   void prepare(const Pose& goal);
   void loop(Pose T_wc, const JointVector* q_start) noexcept;
   double boundary_tz(int seen) const noexcept;
-  void estimate_depth(int k) noexcept;
-  double depth_measurement_variance() const noexcept;
 
   AnyServo servo_;
   ServoOutput out_;
@@ -244,7 +233,8 @@ class Episode {
   JointMappingInput joint_in_{1};
   JointMappingOutput joint_out_{1};
   EpisodeOptions options_;
-  std::optional<PlanarPose> estimator_;
+  std::optional<PlanarPose> pose_estimator_;        // DepthMode::pose
+  std::optional<DepthEstimator> depth_estimator_;  // DepthMode::estimated
   Eigen::Matrix3Xd world_points_;
   Eigen::Vector3d centroid_;  // target frame
   // per-frame work
@@ -254,10 +244,7 @@ class Episode {
   Points uv_;
   Eigen::VectorXd z_;
   Eigen::Matrix4Xd desired_distance_;  // 4 x N: desired points' distances to the sensor's sides
-  // depth estimate: per point the filter's state (x, y, rho) and its covariance,
-  // and a ring of the camera's motion after each frame (new pose in the old frame)
-  Eigen::Matrix3Xd est_;
-  std::vector<Eigen::Matrix3d> est_cov_;
+  // depth estimate: a ring of the camera's motion after each frame (new pose in the old frame)
   std::vector<Pose> ring_motion_;  // L + 1
   EpisodeResult result_;
 };

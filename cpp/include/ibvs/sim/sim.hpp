@@ -5,5 +5,4 @@
 #include "ibvs/camera_model.hpp"
 #include "ibvs/sim/episode.hpp"
 #include "ibvs/sim/gantry.hpp"
-#include "ibvs/sim/planar_pose.hpp"
 #include "ibvs/sim/target.hpp"

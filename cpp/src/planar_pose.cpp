@@ -1,4 +1,4 @@
-#include "ibvs/sim/planar_pose.hpp"
+#include "ibvs/planar_pose.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -7,15 +7,35 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
-namespace ibvs::sim {
+namespace ibvs {
 
 PlanarPose::PlanarPose(const Eigen::Matrix3Xd& points, int iterations) : points_(points), iterations_(iterations) {
-  if (points_.cols() < 4) throw std::invalid_argument("ibvs: the pose depth mode needs at least 4 target points");
+  if (points_.cols() < 4)
+    throw std::invalid_argument("ibvs: points: a planar pose needs at least 4 target points, got " +
+                                std::to_string(points_.cols()));
+  if (!points_.allFinite()) throw std::invalid_argument("ibvs: points must be finite");
   for (Eigen::Index i = 0; i < points_.cols(); ++i)
     if (std::abs(points_(2, i)) > 1e-12)
-      throw std::invalid_argument("ibvs: the pose depth mode needs a planar target (all points with z = 0)");
-  if (iterations_ < 0) throw std::invalid_argument("ibvs: iterations must be >= 0");
+      throw std::invalid_argument("ibvs: points: a planar pose needs a planar target (all points with z = 0), point " +
+                                  std::to_string(i) + " has z = " + std::to_string(points_(2, i)));
+  // Not all on one line: the 2x2 scatter of the points must have rank 2.
+  const Eigen::Vector2d c = points_.topRows<2>().rowwise().mean();
+  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
+  for (Eigen::Index i = 0; i < points_.cols(); ++i) S += (points_.block<2, 1>(0, i) - c) * (points_.block<2, 1>(0, i) - c).transpose();
+  const Eigen::Vector2d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(S).eigenvalues();
+  if (!(ev(0) > 1e-12 * ev(1)))
+    throw std::invalid_argument("ibvs: points: the target points lie on one line (no pose from them)");
+  if (iterations_ < 0) throw std::invalid_argument("ibvs: iterations must be >= 0, got " + std::to_string(iterations_));
+}
+
+bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T, Eigen::Ref<Eigen::VectorXd> depth) const noexcept {
+  Pose E;
+  if (depth.size() != points_.cols() || !estimate(uv, E)) return false;
+  for (Eigen::Index i = 0; i < points_.cols(); ++i) depth(i) = E.row(2).head<3>().dot(points_.col(i)) + E(2, 3);
+  T = E;
+  return true;
 }
 
 namespace {
@@ -51,6 +71,9 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(AtA);
   if (eig.info() != Eigen::Success) return false;
+  // A unique homography needs a one-dimensional null space: a second (nearly) zero
+  // eigenvalue means the image does not determine it (e.g. three of four points on a line).
+  if (!(eig.eigenvalues()(1) > 1e-10 * eig.eigenvalues()(8))) return false;
   const Eigen::Matrix<double, 9, 1> h = eig.eigenvectors().col(0);
   Eigen::Matrix3d Hn;
   Hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
@@ -95,4 +118,4 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
   return true;
 }
 
-}  // namespace ibvs::sim
+}  // namespace ibvs
