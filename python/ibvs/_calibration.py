@@ -78,7 +78,7 @@ def read(path) -> dict:
     with open(path, "rb") as f:
         text = f.read().decode("utf-8", errors="replace")
     stripped = text.lstrip("\ufeff \t\r\n")
-    if not stripped.startswith(("%YAML", "<?xml", "{")):  # plain YAML (ROS): add the header FileStorage looks for
+    if not stripped.startswith(("%YAML", "<?xml", "{")):  # plain YAML (ROS): add FileStorage's header
         text = "%YAML:1.0\n" + text
     try:
         fs = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
@@ -91,7 +91,8 @@ def read(path) -> dict:
         if K.shape != (3, 3):
             raise ValueError(f"path: {path}: camera_matrix must be 3x3, got {K.shape[0]}x{K.shape[1]}")
         dnode = fs.getNode("distortion_coefficients")
-        dist = np.zeros(0) if dnode.empty() or dnode.isNone() else _matrix(dnode, "distortion_coefficients", path)
+        absent = dnode.empty() or dnode.isNone()
+        dist = np.zeros(0) if absent else _matrix(dnode, "distortion_coefficients", path)
         model_node = fs.getNode("distortion_model")
         model = model_node.string().strip().lower() if model_node.isString() else ""
         fisheye_node = fs.getNode("fisheye_model")

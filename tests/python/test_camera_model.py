@@ -138,11 +138,13 @@ def test_simulator_ends_a_point_beyond_the_fold_as_left_image():
 
     cam = ibvs.CameraModel.from_opencv([[300, 0, 320], [0, 300, 240], [0, 0, 1]], [-0.5, 0, 0, 0], W, H)
     assert cam.max_radius == pytest.approx(1 / math.sqrt(1.5))
-    points = np.array([[0.1, 0.1, 2.0], [-0.1, 0.1, 2.0], [-0.1, -0.1, 2.0], [3.0, 0.0, 2.0]])  # point 3 at x/z = 1.5
+    # point 3 at x/z = 1.5, past the fold
+    points = np.array([[0.1, 0.1, 2.0], [-0.1, 0.1, 2.0], [-0.1, -0.1, 2.0], [3.0, 0.0, 2.0]])
     folded, _ = cv2.projectPoints(points[3:], np.zeros(3), np.zeros(3), cam.K, np.array([-0.5, 0, 0, 0]))
     assert cam.contains(folded[0, 0])  # the bare formula would call it visible
     target = sim.Target(points)
-    r = sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, target, np.eye(4), sim.pose(t=(0, 0, -20)))
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
+    r = sim.run(servo, cam, target, np.eye(4), sim.pose(t=(0, 0, -20)))
     assert (r.status.outcome, r.status.frame, r.status.point) == ("left_image", 0, 3)
     assert np.isfinite(r.history.twist).all()  # nothing non-finite reached the servo or the history
 
@@ -159,7 +161,8 @@ def radial_derivative(cam, r):
     [
         (ibvs.CameraModel.afma6(), 1 / math.sqrt(3 * 0.2114)),  # 1 + 3 kud r^2 = 0
         (ibvs.CameraModel.from_opencv(K, [-0.3, 0.0, 0.0, 0.0], W, H), 1 / math.sqrt(0.9)),
-        (ibvs.CameraModel.from_opencv(K, [-0.4, 0.05, 0.0, 0.0], W, H), math.sqrt((1.2 - math.sqrt(0.44)) / 0.5)),
+        (ibvs.CameraModel.from_opencv(K, [-0.4, 0.05, 0.0, 0.0], W, H),
+         math.sqrt((1.2 - math.sqrt(0.44)) / 0.5)),  # 1 - 1.2 s + 0.25 s^2 = 0
         (ibvs.CameraModel.from_opencv(K_FISHEYE, [-0.3, 0.0, 0.0, 0.0], W, H, fisheye=True),
          math.tan(1 / math.sqrt(0.9))),
     ],
@@ -314,7 +317,8 @@ projection_matrix:
 
 def ros_file(tmp_path, model="plumb_bob", coefficients=PLUMB_BOB, name="camera.yaml"):
     path = tmp_path / name
-    path.write_text(ROS_YAML.format(model=model, n=len(coefficients), coefficients=", ".join(repr(float(c)) for c in coefficients)))
+    values = ", ".join(repr(float(c)) for c in coefficients)
+    path.write_text(ROS_YAML.format(model=model, n=len(coefficients), coefficients=values))
     return path
 
 
@@ -323,7 +327,7 @@ def test_from_ros_camera_info(tmp_path):
     assert cam == ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H)
     fe = ibvs.CameraModel.from_yaml(str(ros_file(tmp_path, "equidistant", FISHEYE)), fps=30.0)
     assert fe.distortion == "equidistant" and fe.coefficients == tuple(FISHEYE) and fe.fps == 30.0
-    rational = ibvs.CameraModel.from_yaml(ros_file(tmp_path, "rational_polynomial", [*PLUMB_BOB, 0.0, 0.0, 0.0]))
+    rational = ibvs.CameraModel.from_yaml(ros_file(tmp_path, "rational_polynomial", [*PLUMB_BOB, 0, 0, 0]))
     assert rational == cam
 
 
@@ -380,17 +384,17 @@ coefficient = st.floats(-0.5, 0.5, allow_nan=False)
 @st.composite
 def models(draw):
     f = draw(st.floats(200, 2000))
-    Kr = np.array([[f, 0, draw(st.floats(200, 440))], [0, f * draw(st.floats(0.9, 1.1)), draw(st.floats(150, 330))],
-                   [0, 0, 1]])
+    cx, cy, aspect = draw(st.floats(200, 440)), draw(st.floats(150, 330)), draw(st.floats(0.9, 1.1))
+    Kr = np.array([[f, 0, cx], [0, f * aspect, cy], [0, 0, 1]])
     kind = draw(st.sampled_from(["plumb_bob", "equidistant", "visp"]))
     if kind == "plumb_bob":
         d = [draw(coefficient), draw(coefficient), draw(st.floats(-2e-3, 2e-3)), draw(st.floats(-2e-3, 2e-3)),
              draw(coefficient)]
         return ibvs.CameraModel.from_opencv(Kr, d, W, H)
     if kind == "equidistant":
-        return ibvs.CameraModel.from_opencv(Kr, [draw(st.floats(-0.1, 0.1)) for _ in range(4)], W, H, fisheye=True)
-    return ibvs.CameraModel.from_visp(Kr[0, 0], Kr[1, 1], Kr[0, 2], Kr[1, 2], draw(coefficient), draw(coefficient),
-                                      W, H)
+        d = [draw(st.floats(-0.1, 0.1)) for _ in range(4)]
+        return ibvs.CameraModel.from_opencv(Kr, d, W, H, fisheye=True)
+    return ibvs.CameraModel.from_visp(f, f * aspect, cx, cy, draw(coefficient), draw(coefficient), W, H)
 
 
 finite = st.floats(-1e6, 1e6, allow_nan=False)

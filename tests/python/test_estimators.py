@@ -137,7 +137,8 @@ def test_simulator_estimated_depth_is_the_depth_estimator():
     """The simulator's depth="estimated" runs ibvs.DepthEstimator: fed the same points and the same
     motions, the Python object gives the same depths (to rounding: numpy forms the motions)."""
     case = sim.cases.gantry_general_motion()
-    r = sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=2.0), case.camera, case.target, case.start, case.goal,
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=2.0)
+    r = sim.run(servo, case.camera, case.target, case.start, case.goal,
                 robot=case.robot, duration=3.0, depth="estimated", noise=0.3, seed=5, depth_scale=1.2)
     h = r.history
     est = ibvs.DepthEstimator(1.2 * r.depth_desired, point_noise=0.3 / min(case.camera.px, case.camera.py))
@@ -149,7 +150,8 @@ def test_simulator_estimated_depth_is_the_depth_estimator():
 
 def test_simulator_pose_depth_is_the_planar_pose():
     case = sim.cases.gantry_general_motion()
-    r = sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=2.0), case.camera, case.target, case.start, case.goal,
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=2.0)
+    r = sim.run(servo, case.camera, case.target, case.start, case.goal,
                 robot=case.robot, duration=2.0, depth="pose", noise=0.3, seed=5)
     est = ibvs.PlanarPose(case.target.points)
     for k in range(len(r.history) - 1):

@@ -52,7 +52,8 @@ def test_normalised_calls_take_opencv_shape_too():
 
 def test_closed_loop_in_pixels(camera):
     """A free-flying camera servoed from pixels of a distorted camera converges in the image to < 0.01 px."""
-    P = np.array([[0.1, 0.1, 1.0], [-0.1, 0.1, 1.0], [-0.1, -0.1, 1.0], [0.1, -0.1, 1.0]])  # world = goal camera
+    # the points in the goal camera's frame
+    P = np.array([[0.1, 0.1, 1.0], [-0.1, 0.1, 1.0], [-0.1, -0.1, 1.0], [0.1, -0.1, 1.0]])
     start = ibvs.se3_exp(np.array([0.05, -0.03, -0.2, 0.1, -0.08, 0.6]))
 
     def measure(T_wc):
