@@ -99,7 +99,7 @@ void robot_episode_allocates_nothing() {
   o.depth = DepthMode::estimated;
   ServoOptions so;
   so.gain = 2.0;
-  Episode e(Servo(Layout::stacked(4), so), Camera::afma6(), gantry_target(Gantry::afma6()),
+  Episode e(Servo(Layout::stacked(4), so), CameraModel::afma6(), gantry_target(Gantry::afma6()),
             std::make_shared<StackedGantry>(), o);
   const JointVector qs = stacked_start(), qg = stacked_goal();
   const Pose goal = e.robot()->camera(qg);

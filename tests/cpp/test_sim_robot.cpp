@@ -30,8 +30,8 @@ void redundant_robot_moves_the_camera_as_the_gantry() {
   robot->qdot_max.setConstant(no_limit);  // no saturation: the same twist, hence the same camera path
   Gantry free = g;
   free.qdot_max.setConstant(no_limit);
-  Episode e7(cartesian(), Camera::afma6(), gantry_target(g), robot, options());
-  Episode e6(cartesian(), Camera::afma6(), gantry_target(g), free, options());
+  Episode e7(cartesian(), CameraModel::afma6(), gantry_target(g), robot, options());
+  Episode e6(cartesian(), CameraModel::afma6(), gantry_target(g), free, options());
   const EpisodeResult& a = e7.run(stacked_start(), stacked_goal());
   const EpisodeResult& b = e6.run(gantry_start(), gantry_goal());
   CHECK(a.status.outcome == Outcome::converged && b.status.outcome == Outcome::converged);
@@ -54,7 +54,7 @@ void speed_limits_and_joint_limits() {
   const auto robot = std::make_shared<StackedGantry>();
   ServoOptions so;
   so.gain = 2.0;
-  Episode e(Servo(Layout::polar(4), so), Camera::afma6(), gantry_target(g), robot, options());
+  Episode e(Servo(Layout::polar(4), so), CameraModel::afma6(), gantry_target(g), robot, options());
   const EpisodeResult& r = e.run(stacked_start(), stacked_goal());
   CHECK(r.status.outcome == Outcome::converged);
   double worst = 0.0;
@@ -63,7 +63,7 @@ void speed_limits_and_joint_limits() {
   CHECK(worst <= 1.0 + 1e-12 && worst > 0.99);  // saturated at some frame, never beyond
   // A tight range on the extra slide stops the run there.
   robot->q_max(6) = 0.01;  // the minimum-norm split gives it half of the 9 cm rise
-  Episode tight(Servo(Layout::polar(4), so), Camera::afma6(), gantry_target(g), robot, options());
+  Episode tight(Servo(Layout::polar(4), so), CameraModel::afma6(), gantry_target(g), robot, options());
   const EpisodeResult& t = tight.run(stacked_start(), stacked_goal());
   CHECK(t.status.outcome == Outcome::joint_limit && t.status.joint == 6);
 }
@@ -71,11 +71,11 @@ void speed_limits_and_joint_limits() {
 void failing_kinematics() {
   const Gantry g = Gantry::afma6();
   const auto robot = std::make_shared<StackedGantry>();
-  Episode e(cartesian(), Camera::afma6(), gantry_target(g), robot, options());
+  Episode e(cartesian(), CameraModel::afma6(), gantry_target(g), robot, options());
   robot->fail = true;
   CHECK_THROWS(e.run(stacked_start(), stacked_goal()));  // at the start: refused
   CHECK_THROWS(e.run(gantry_start(), gantry_goal()));   // 6 joints for a 7-joint robot
-  CHECK_THROWS(Episode(cartesian(), Camera::afma6(), gantry_target(g), std::shared_ptr<Robot>(), options()));
+  CHECK_THROWS(Episode(cartesian(), CameraModel::afma6(), gantry_target(g), std::shared_ptr<Robot>(), options()));
   StackedGantry bad;
   bad.qdot_max.resize(6);
   CHECK_THROWS(bad.validate());
@@ -99,7 +99,7 @@ struct FailsAfter final : Robot {
 
 void failing_mid_run() {
   const Gantry g = Gantry::afma6();
-  Episode e(cartesian(), Camera::afma6(), gantry_target(g), std::make_shared<FailsAfter>(), options());
+  Episode e(cartesian(), CameraModel::afma6(), gantry_target(g), std::make_shared<FailsAfter>(), options());
   const EpisodeResult& r = e.run(stacked_start(), stacked_goal());
   CHECK(r.status.outcome == Outcome::diverged && r.history.frames < 12);
 }
