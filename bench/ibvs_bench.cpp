@@ -297,6 +297,7 @@ struct Result {
   long iterations = 0;
   double median_us = 0, p99_us = 0, max_us = 0, mean_us = 0, steps_per_s = 0;
   double allocs_per_call = 0;
+  int robust_frames = -1;  // Servo::update rows: frames (of Frames::count) solved by the robust route
 };
 
 double percentile(std::vector<double>& sorted, double p) {
@@ -375,16 +376,35 @@ Result& add(const char* section, const char* name, const std::string& layout, in
 
 void print_row(std::FILE* f, const Result& r);
 
+/// How many of the frames Servo::update solves by the robust route (QR + SVD) rather than the normal equations.
+template <int Rows>
+int count_robust(const Layout& layout, double damping, const Frames& fr) {
+  const int m = layout.rows();
+  ibvs_bench::SolveKernel<Rows> w(m);
+  int robust = 0;
+  for (int k = 0; k < Frames::count; ++k) {
+    w.J.topRows(m) = ibvs::jacobian(layout, fr.uv[k], fr.z[k]);
+    robust += w.route(damping) == ibvs::detail::Route::robust;
+  }
+  return robust;
+}
+
 void bench_update(const char* section, const char* name, const std::string& kind, int n, double damping,
-                  bool diagnostics, const Options& o, const Frames& fr) {
+                  bool diagnostics, const Options& o, const Frames& fr, bool exact = false, bool read_sigma = false) {
   const Layout layout = make_layout(kind, n);
-  ibvs::Servo servo(layout, servo_options(o.gain, damping, diagnostics));
+  ibvs::ServoOptions so = servo_options(o.gain, damping, diagnostics);
+  so.exact_diagnostics = exact;
+  ibvs::Servo servo(layout, so);
   ibvs::ServoOutput out(layout);
-  Result& r = add(section, name, kind, n, layout.rows(), damping > 0 ? "LLT" : "QR+SVD", damping, diagnostics);
+  Result& r = add(section, name, kind, n, layout.rows(), "auto", damping, diagnostics);
+  r.robust_frames = layout.rows() == 8    ? count_robust<8>(layout, damping, fr)
+                    : layout.rows() == 16 ? count_robust<16>(layout, damping, fr)
+                                          : count_robust<Eigen::Dynamic>(layout, damping, fr);
   time_case(r, o, [&](long i) {
     const int k = static_cast<int>(i & (Frames::count - 1));
     servo.update(fr.uv[k], fr.z[k], fr.uvd[k], fr.zd[k], out);
     keep(out.velocity);
+    if (read_sigma) keep(out.sigma_min());
   });
 }
 
@@ -406,24 +426,38 @@ void bench_solve(const std::string& kind, int n, const Options& o, const Frames&
     w.e.head(m) = es[k];
   };
   {
-    Result& r = add("components", "solve damped (LLT)", kind, n, m, "LLT", o.damping, 0);
+    Result& r = add("components", "solve: normal route, damped", kind, n, m, "normal", o.damping, 0);
     time_case(r, o, [&](long i) {
       load(i);
-      keep(w.damped(o.damping));
+      keep(w.normal(o.damping));
     });
   }
   {
-    Result& r = add("components", "diagnostics (eig J^T J)", kind, n, m, "eig", o.damping, 1);
+    Result& r = add("components", "solve: normal route, undamped", kind, n, m, "normal", 0.0, 0);
     time_case(r, o, [&](long i) {
       load(i);
-      keep(w.diagnostics());
+      keep(w.normal(0.0));
     });
   }
   {
-    Result& r = add("components", "solve undamped (QR+SVD)", kind, n, m, "QR+SVD", 0.0, 1);
+    Result& r = add("components", "sigma_min/max on read: eig(J^T J)", kind, n, m, "eig6", 0.0, 1);
     time_case(r, o, [&](long i) {
       load(i);
-      keep(w.svd_route());
+      keep(w.eigenvalues());
+    });
+  }
+  {
+    Result& r = add("components", "diagnostics: exact (QR + SVD of R)", kind, n, m, "exact", 0.0, 1);
+    time_case(r, o, [&](long i) {
+      load(i);
+      keep(w.exact());
+    });
+  }
+  {
+    Result& r = add("components", "solve: robust route (QR + SVD of R)", kind, n, m, "robust", 0.0, 1);
+    time_case(r, o, [&](long i) {
+      load(i);
+      keep(w.robust(0.0));
     });
   }
   {
@@ -519,9 +553,11 @@ void bench_components(const std::string& kind, int n, const Options& o) {
   if (m == 8) bench_solve<8>(kind, n, o, fr);
   else if (m == 16) bench_solve<16>(kind, n, o, fr);
   else bench_solve<Eigen::Dynamic>(kind, n, o, fr);
-  bench_update("components", "Servo::update damped", kind, n, o.damping, false, o, fr);
+  bench_update("components", "Servo::update default (damping 0, diag.)", kind, n, 0.0, true, o, fr);
+  bench_update("components", "Servo::update default, sigma_min() read", kind, n, 0.0, true, o, fr, false, true);
+  bench_update("components", "Servo::update tuned (damped, no diag.)", kind, n, o.damping, false, o, fr);
   bench_update("components", "Servo::update damped + diagnostics", kind, n, o.damping, true, o, fr);
-  bench_update("components", "Servo::update undamped (SVD)", kind, n, 0.0, true, o, fr);
+  bench_update("components", "Servo::update default, exact diagnostics", kind, n, 0.0, true, o, fr, true);
   if (n == 4) {
     check_floor_agrees(kind, o, fr);
     switch (kind_of(kind)) {
@@ -869,7 +905,7 @@ std::string json_escape(const std::string& s) {
 }
 
 void print_row(std::FILE* f, const Result& r) {
-  char what[48];
+  char what[48], robust[16] = "";
   if (r.section == "robot")
     std::snprintf(what, sizeof what, "%d joints, J 6x%d", r.n, r.n);
   else if (r.rows > 0)
@@ -878,14 +914,31 @@ void print_row(std::FILE* f, const Result& r) {
     std::snprintf(what, sizeof what, "N = %d", r.n);
   else
     std::snprintf(what, sizeof what, "%s, N = %d", r.layout.c_str(), r.n);
-  std::fprintf(f, "  %-36s %-20s %9.3f %9.3f %9.2f %9.3f %12.0f %7.2g\n", r.name.c_str(), what, r.median_us, r.p99_us,
-               r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call);
+  if (r.robust_frames >= 0) std::snprintf(robust, sizeof robust, "%d/%d", r.robust_frames, Frames::count);
+  std::fprintf(f, "  %-42s %-20s %9.3f %9.3f %9.2f %9.3f %12.0f %7.2g %7s\n", r.name.c_str(), what, r.median_us,
+               r.p99_us, r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call, robust);
 }
 
 void print_header(std::FILE* f, const char* title) {
-  std::fprintf(f, "\n%s\n  %-36s %-20s %9s %9s %9s %9s %12s %7s\n", title, "case", "layout", "median", "p99", "max",
-               "mean", "steps/s", "allocs");
-  std::fprintf(f, "  %-36s %-20s %9s %9s %9s %9s %12s %7s\n", "", "", "us", "us", "us", "us", "", "/call");
+  std::fprintf(f, "\n%s\n  %-42s %-20s %9s %9s %9s %9s %12s %7s %7s\n", title, "case", "layout", "median", "p99",
+               "max", "mean", "steps/s", "allocs", "robust");
+  std::fprintf(f, "  %-42s %-20s %9s %9s %9s %9s %12s %7s %7s\n", "", "", "us", "us", "us", "us", "", "/call",
+               "route");
+}
+
+/// The ViSP stand-in ratio of one N = 4 layout: the fixed-size Eigen JacobiSVD
+/// step (an SVD of J per frame, as vpServo's pseudoinverse) over the default
+/// Servo::update, medians of the same run.
+void print_visp_ratio(std::FILE* f, const std::string& kind) {
+  const Result *svd = nullptr, *def = nullptr;
+  for (const Result& r : g_results)
+    if (r.section == "components" && r.layout == kind && r.n == 4) {
+      if (r.name == "Eigen fixed-size JacobiSVD step") svd = &r;
+      if (r.name == "Servo::update default (damping 0, diag.)") def = &r;
+    }
+  if (svd && def && def->median_us > 0)
+    std::fprintf(f, "  ViSP stand-in (ViSP not found): Eigen JacobiSVD step / default Servo::update, %s(4): %.1fx\n",
+                 kind.c_str(), svd->median_us / def->median_us);
 }
 
 }  // namespace
@@ -918,6 +971,7 @@ int main(int argc, char** argv) {
         const std::size_t first = g_results.size();
         bench_components(kind, n, o);
         for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
+        if (n == 4) print_visp_ratio(table, kind);
         std::fflush(table);
       }
   }
@@ -927,9 +981,9 @@ int main(int argc, char** argv) {
     for (const auto& kind : o.layouts)
       for (int n : ns) {
         const Frames fr(n);
-        bench_update("growth", "Servo::update damped", kind, n, o.damping, false, o, fr);
+        bench_update("growth", "Servo::update default (damping 0, diag.)", kind, n, 0.0, true, o, fr);
         print_row(table, g_results.back());
-        bench_update("growth", "Servo::update undamped (SVD)", kind, n, 0.0, true, o, fr);
+        bench_update("growth", "Servo::update tuned (damped, no diag.)", kind, n, o.damping, false, o, fr);
         print_row(table, g_results.back());
         std::fflush(table);
       }
@@ -1003,11 +1057,12 @@ int main(int argc, char** argv) {
       std::snprintf(buf, sizeof buf,
                     "%s{\"section\":\"%s\",\"name\":\"%s\",\"layout\":\"%s\",\"n\":%d,\"rows\":%d,\"route\":\"%s\","
                     "\"damping\":%g,\"diagnostics\":%s,\"iterations\":%ld,\"median_us\":%.4f,\"p99_us\":%.4f,"
-                    "\"max_us\":%.3f,\"mean_us\":%.4f,\"steps_per_s\":%.0f,\"allocs_per_call\":%g}",
+                    "\"max_us\":%.3f,\"mean_us\":%.4f,\"steps_per_s\":%.0f,\"allocs_per_call\":%g,"
+                    "\"robust_frames\":%d}",
                     i ? "," : "", r.section.c_str(), json_escape(r.name).c_str(), r.layout.c_str(), r.n, r.rows,
                     r.route.c_str(), r.damping,
                     r.diagnostics < 0 ? "null" : (r.diagnostics ? "true" : "false"), r.iterations, r.median_us,
-                    r.p99_us, r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call);
+                    r.p99_us, r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call, r.robust_frames);
       s += buf;
     }
     s += "],\"paced\":[";

@@ -37,29 +37,49 @@ struct SolveKernel {
   Solve solver;
   Eigen::Index m_;
 
-  /// Damped route (LLT of the normal equations), without diagnostics.
-  Twist damped(double lambda) noexcept {
+  /// The whole solve of Servo::update (route decided as there), with the diagnostics asked for.
+  Twist solve(double lambda, ibvs::detail::Diagnostics d) noexcept {
     Twist x;
-    solver.normal(J);
-    solver.damped(J, e, lambda, x);
+    ibvs::detail::Spectrum spectrum;
+    solver.solve(J, e, m_, lambda, d, x, spectrum);
     return x;
   }
 
-  /// Diagnostics of the damped route: sigma_min, sigma_max from eig(J^T J).
-  Eigen::Vector2d diagnostics() noexcept {
+  /// The normal route alone (J^T J + lambda^2 I, Cholesky, refinement); assumes it applies.
+  Twist normal(double lambda) noexcept {
+    Twist x;
+    solver.gram(J);
+    solver.N = solver.N0;
+    solver.N.diagonal().array() += lambda * lambda;
+    solver.normal.factor(solver.N);
+    solver.solve_normal(J, e, lambda * lambda, x);
+    return x;
+  }
+
+  /// sigma_min, sigma_max as ServoOutput computes them when read: the eigenvalues of J^T J.
+  Eigen::Vector2d eigenvalues() noexcept {
     Eigen::Vector2d s;
-    solver.normal(J);
-    solver.diagnostics(s(0), s(1));
+    solver.gram(J);
+    Solve::from_gram(solver.N0, s(0), s(1));
     return s;
   }
 
-  /// Undamped route: QR of J, SVD of the 6x6 R, Moore-Penrose with rank cut.
-  Twist svd_route() noexcept {
+  /// The exact singular values (QR of J, SVD of R).
+  Eigen::Vector2d exact() noexcept {
+    Eigen::Vector2d s;
+    solver.exact_singular_values(J, s(0), s(1));
+    return s;
+  }
+
+  /// The robust route alone: QR of J, SVD of the 6x6 R, filter factors.
+  Twist robust(double lambda) noexcept {
     Twist x;
-    double smin, smax;
-    solver.moore_penrose(J, e, m_, x, smin, smax);
+    solver.robust(J, e, m_, lambda, x);
     return x;
   }
+
+  /// The route Servo::update takes for this J and lambda.
+  ibvs::detail::Route route(double lambda) noexcept { return solver.route(J, lambda); }
 };
 
 /// Which representation point i gets in the floor kernels (one entry per

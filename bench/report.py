@@ -72,9 +72,11 @@ def py_tables(runs: list[dict]) -> str:
     r0 = runs[0]
     lines = [(f"Python `python -m ibvs.bench`: median of {len(runs)} runs, {r0['iterations']} iterations per case, "
               f"Python {r0['python']}, numpy {r0['numpy']}"), "",
-             "| case | layout | median µs | p99 µs | max µs | calls/s | numpy / ibvs |", "|---|---|---:|---:|---:|---:|---:|"]
+             "| case | layout | median µs | p99 µs | max µs | calls/s | ratio |", "|---|---|---:|---:|---:|---:|---:|"]
     for (name, layout, n, m), v in _group(runs, "cases", ("name", "layout", "n", "rows")).items():
-        ratio = f"{_median(v, 'numpy_ratio'):.0f}×" if "numpy_ratio" in v[0] and v[0]["implementation"] == "ibvs" else ""
+        ratio = f"numpy / ibvs {_median(v, 'numpy_ratio'):.0f}×" if "numpy_ratio" in v[0] and v[0]["implementation"] == "ibvs" else ""
+        if "default_over_tuned" in v[0]:
+            ratio = f"default / tuned {_median(v, 'default_over_tuned'):.2f}×"
         lines.append(f"| {name} | {layout}({n}) {m}×6 | {_median(v, 'median_us'):.2f} | {_median(v, 'p99_us'):.2f} | "
                      f"{_median(v, 'max_us'):.1f} | {_median(v, 'calls_per_s'):,.0f} | {ratio} |")
     return "\n".join(lines) + "\n"

@@ -54,7 +54,7 @@ PYBIND11_MODULE(ibvs_py_proto, m) {
       .def_readonly("velocity", &ServoOutput::velocity)
       .def_readonly("error", &ServoOutput::error)
       .def_readonly("jacobian", &ServoOutput::jacobian)
-      .def_readonly("sigma_min", &ServoOutput::sigma_min);
+      .def_property_readonly("sigma_min", &ServoOutput::sigma_min);
   py::class_<Result>(m, "EagerResult", py::module_local())
       .def_readonly("velocity", &Result::velocity)
       .def_readonly("error", &Result::error)
@@ -94,8 +94,8 @@ PYBIND11_MODULE(ibvs_py_proto, m) {
         std::copy(p.out.error.data(), p.out.error.data() + m, r.error.mutable_data());
         r.jacobian = py::array_t<double>({m, Eigen::Index(6)});
         Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>>(r.jacobian.mutable_data(), m, 6) = p.out.jacobian;
-        r.sigma_min = p.out.sigma_min;
-        r.sigma_max = p.out.sigma_max;
+        r.sigma_min = p.out.sigma_min();
+        r.sigma_max = p.out.sigma_max();
         r.error_norm = p.out.error_norm;
         return r;
       });

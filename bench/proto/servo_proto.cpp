@@ -121,8 +121,7 @@ struct Proto {
     out.error = e.head(m);
     out.error_norm = out.error.norm();
     out.jacobian = J.topRows(m);
-    out.sigma_min = smin;
-    out.sigma_max = smax;
+    out.set_singular_values(smin, smax);
     return out.velocity;
   }
 };
@@ -209,8 +208,8 @@ void run(const char* name, const Layout& layout, long iters) {
       p.update(layout, gain, lambda, rmin, uv[k], z[k], uvd[k], zd[k], out);
       dv = std::max(dv, (out.velocity - rout.velocity).norm() / rout.velocity.norm());
       if (v.lib_diag) {
-        dmin = std::max(dmin, std::abs(out.sigma_min - rout.sigma_min) / rout.sigma_min);
-        dmax = std::max(dmax, std::abs(out.sigma_max - rout.sigma_max) / rout.sigma_max);
+        dmin = std::max(dmin, std::abs(out.sigma_min() - rout.sigma_min()) / rout.sigma_min());
+        dmax = std::max(dmax, std::abs(out.sigma_max() - rout.sigma_max()) / rout.sigma_max());
       }
     }
     if (!(dv < 1e-9)) {

@@ -93,7 +93,7 @@ Eigen::VectorXd dist_arg(py::handle obj) {
 
 // Pixel arrays of update_pixels: (N, 2) or (N, 1, 2), validated by the servo's validate_pixels.
 template <class PyLaw>
-ServoOutput pixel_update(PyLaw& s, py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj) {
+std::shared_ptr<ServoOutput> pixel_update(PyLaw& s, py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj) {
   const CArray a = as_array(px_obj, "pixels"), b = as_array(pxd_obj, "pixels_desired");
   const auto px = points(a, "pixels");
   const auto pxd = points(b, "pixels_desired");
@@ -111,17 +111,18 @@ ServoOutput pixel_update(PyLaw& s, py::handle px_obj, py::handle depth_obj, py::
   } else {
     s.servo.validate_pixels(px, s.z, pxd);
   }
-  s.servo.update_pixels(px, s.z, pxd, s.zd, s.out);
-  return s.out;
+  std::shared_ptr<ServoOutput> out = s.outputs.next();  // a buffer no earlier result holds (py_servo.hpp)
+  s.servo.update_pixels(px, s.z, pxd, s.zd, *out);
+  return out;
 }
 
 }  // namespace
 
-ServoOutput py_servo::PyServo::update_pixels(py::handle px, py::handle depth, py::handle pxd, py::handle zd) {
+std::shared_ptr<ServoOutput> py_servo::PyServo::update_pixels(py::handle px, py::handle depth, py::handle pxd, py::handle zd) {
   return pixel_update(*this, px, depth, pxd, zd);
 }
 
-ServoOutput py_servo::PyPartitioned::update_pixels(py::handle px, py::handle depth, py::handle pxd, py::handle zd) {
+std::shared_ptr<ServoOutput> py_servo::PyPartitioned::update_pixels(py::handle px, py::handle depth, py::handle pxd, py::handle zd) {
   return pixel_update(*this, px, depth, pxd, zd);
 }
 

@@ -47,14 +47,6 @@ const char* interaction_name(InteractionMatrix j) {
   return j == InteractionMatrix::desired ? "desired" : j == InteractionMatrix::mean ? "mean" : "current";
 }
 
-int int_arg(py::handle obj, const std::string& name) {
-  if (py::isinstance<py::bool_>(obj) || !py::hasattr(obj, "__index__"))
-    throw py::type_error(name + " must be an int, got " +
-                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
-  auto i = py::reinterpret_steal<py::object>(PyNumber_Index(obj.ptr()));
-  if (!i) throw py::error_already_set();
-  return i.cast<int>();
-}
 
 Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
   if (py::isinstance<py::str>(blocks)) throw py::type_error("blocks must be a sequence of (point_index, representation)");
@@ -65,12 +57,12 @@ Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
     if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
       throw py::type_error(where + " must be a pair (point_index, 'cartesian' | 'polar' | 'cylindrical')");
     const auto pair = py::reinterpret_borrow<py::sequence>(item);
-    out.push_back({int_arg(pair[0], where + "[0] (point index)"), representation(pair[1], where + "[1]")});
+    out.push_back({int_in(pair[0], where + "[0] (point index)", 0, max_points - 1), representation(pair[1], where + "[1]")});
   }
-  return Layout(std::move(out), n_points.is_none() ? -1 : int_arg(n_points, "n_points"));
+  return Layout(std::move(out), n_points.is_none() ? -1 : int_in(n_points, "n_points", 1, max_points));
 }
 
-int n_arg(py::handle n) { return int_arg(n, "n"); }
+int n_arg(py::handle n) { return int_in(n, "n", 1, max_points); }
 
 // `gain` in Python: a positive number (constant gain) or an ibvs.AdaptiveGain.
 void set_gain(ServoOptions& o, py::handle g) {
@@ -79,11 +71,11 @@ void set_gain(ServoOptions& o, py::handle g) {
     o.gain = o.adaptive_gain.at_zero;  // kept valid; unused while adaptive_gain is enabled
     return;
   }
-  if (py::isinstance<py::bool_>(g) || !(py::isinstance<py::float_>(g) || py::isinstance<py::int_>(g) ||
-                                         py::hasattr(g, "__float__")) || py::isinstance<py::str>(g))
-    throw py::type_error("gain must be a number or an ibvs.AdaptiveGain, got " +
-                         std::string(py::str(py::type::handle_of(g).attr("__name__"))));
-  o.gain = py::float_(py::reinterpret_borrow<py::object>(g)).cast<double>();
+  try {
+    o.gain = real(g, "gain");
+  } catch (const py::type_error&) {
+    throw py::type_error("gain must be a number or an ibvs.AdaptiveGain, got " + type_name(g));
+  }
   o.adaptive_gain = AdaptiveGain{};
 }
 
@@ -96,15 +88,14 @@ void check_switch_radius(double r) {
   if (!(r >= 0.0) || !std::isfinite(r)) throw py::value_error("switch_radius must be finite and >= 0");
 }
 
-std::string number(double x) {
-  std::string s = py::str(py::float_(x));
-  return s;
-}
+std::string number(double x) { return py::str(py::float_(x)); }
 
 }  // namespace
 
-// Python's Servo.update: numpy arguments, validate() (raises), then the real-time update().
-ServoOutput PyServo::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
+// Python's Servo.update: numpy arguments, validate() (raises), then the real-time update()
+// into an output buffer no earlier result holds (py_servo.hpp: returned without a copy).
+std::shared_ptr<ServoOutput> PyServo::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj,
+                                             py::handle zd_obj) {
   const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
   const auto uv = points(uv_a, "uv");
   const auto uvd = points(uvd_a, "uv_desired");
@@ -119,7 +110,8 @@ ServoOutput PyServo::update(py::handle uv_obj, py::handle depth_obj, py::handle 
     depths(zd_obj, "depth_desired", n, zd);
   }
   servo.validate(uv, z, uvd, zd);
-  servo.update(uv, z, uvd, zd, out);
+  std::shared_ptr<ServoOutput> out = outputs.next();
+  servo.update(uv, z, uvd, zd, *out);
   return out;
 }
 
@@ -190,18 +182,19 @@ n_points defaults to the largest point index + 1.)")
 
   m.def(
       "jacobian",
-      [](py::handle uv, py::handle depth, const Layout& layout, double polar_min_radius) {
+      [](py::handle uv, py::handle depth, const Layout& layout, py::handle polar_min_radius) {
         const CArray a = as_array(uv, "uv");
         const auto p = points(a, "uv");
         Eigen::VectorXd z;
         depths(depth, "depth", p.cols(), z);
-        return jacobian(layout, p, z, polar_min_radius);
+        return jacobian(layout, p, z, real(polar_min_radius, "polar_min_radius"));
       },
       py::arg("uv"), py::arg("depth"), py::arg("layout"), py::arg("polar_min_radius") = default_polar_min_radius,
       R"(Stacked image Jacobian (M, 6): d f/dt = J @ v for the camera twist v = (Tx, Ty, Tz, wx, wy, wz).
 
-uv (N, 2) normalised coordinates; depth (metres, > 0) a scalar or (N,). A polar block whose point
-lies within polar_min_radius of the principal point gets its Cartesian rows (eq. 3) instead.)");
+uv (N, 2) normalised coordinates, |u|, |v| <= 10; depth (metres, in [1e-6, 1e6]) a scalar or (N,). A
+polar block whose point lies within polar_min_radius (and always within 1e-12) of the principal point
+gets its Cartesian rows (eq. 3) instead.)");
 
   m.def(
       "feature_error",
@@ -215,13 +208,15 @@ cylindrical rows (r - r*, r wrap(theta - theta*)).)");
 
   m.def(
       "damped_pinv",
-      [](py::handle J, double damping) {
+      [](py::handle J, py::handle damping) {
         const CArray a = as_array(J, "J");
-        return damped_pinv(matrix_x6(a, "J"), damping);
+        return damped_pinv(matrix_x6(a, "J"), real(damping, "damping"));
       },
       py::arg("J"), py::arg("damping") = 0.0,
-      R"(Pseudoinverse (6, M) of J (M, 6): Moore-Penrose for damping = 0 (SVD, rank-deficient J allowed),
-damped least squares (J^T J + damping^2 I)^-1 J^T for damping > 0.)");
+      R"(Pseudoinverse (6, M) of J (M, 6) by SVD, J = U S V^T: V diag(phi(s)) U^T with phi(s) = 1/s
+(damping = 0, Moore-Penrose) or s / (s^2 + damping^2) (damped least squares, = (J^T J + damping^2 I)^-1 J^T),
+singular values at or below max(M, 6) eps s_max dropped (rank-deficient J allowed). Entries of J and
+damping at most 1e150 in magnitude; a nonzero J needs an entry of at least 1e-150.)");
 
   m.def(
       "singular_values",
@@ -229,7 +224,7 @@ damped least squares (J^T J + damping^2 I)^-1 J^T for damping > 0.)");
         const CArray a = as_array(J, "J");
         return singular_values(matrix_x6(a, "J"));
       },
-      py::arg("J"), "Singular values of J (M, 6), decreasing.");
+      py::arg("J"), "Singular values of J (M, 6), decreasing (entries at most 1e150 in magnitude).");
 
   m.def(
       "wrap_angle",
@@ -245,7 +240,7 @@ damped least squares (J^T J + damping^2 I)^-1 J^T for damping > 0.)");
         if (x.ndim() == 0) return py::float_(dst[0]);
         return std::move(out);
       },
-      py::arg("angle"), "Wrap angles (radians) into (-pi, pi]; exactly -pi maps to +pi.");
+      py::arg("angle"), "Wrap angles (radians, any finite value) into (-pi, pi]; exactly -pi maps to +pi.");
 
   m.def(
       "se3_exp",
@@ -254,20 +249,23 @@ damped least squares (J^T J + damping^2 I)^-1 J^T for damping > 0.)");
         const auto x = vector(a, "twist");
         if (x.size() != 6) throw py::value_error("twist must have shape (6,), got " + shape_of(a));
         if (!x.allFinite()) throw py::value_error("twist must be finite");
+        if (x.cwiseAbs().maxCoeff() > max_twist_entry)
+          throw py::value_error("twist entries must be at most 1e300 in magnitude");
         return Eigen::Matrix4d(se3_exp(x));
       },
       py::arg("twist"),
-      R"(4x4 rigid motion exp(twist^) for a twist (Tx, Ty, Tz, wx, wy, wz) applied for unit time.
-A camera moving with twist v for dt goes from T_wc to T_wc @ se3_exp(v * dt).)");
+      R"(4x4 rigid motion exp(twist^) for a twist (Tx, Ty, Tz, wx, wy, wz) applied for unit time
+(entries at most 1e300 in magnitude). A camera moving with twist v for dt goes from T_wc to
+T_wc @ se3_exp(v * dt).)");
 
   py::class_<AdaptiveGain>(m, "AdaptiveGain", R"(Gain as a function of the error norm x (ViSP's vpAdaptiveGain):
 
   gain(x) = (at_zero - at_infinity) * exp(-(slope_at_zero / (at_zero - at_infinity)) * x) + at_infinity
 
-at_zero > 0 is the gain at x = 0, 0 < at_infinity <= at_zero the gain for large errors,
+at_zero in (0, 1e250] is the gain at x = 0, 0 < at_infinity <= at_zero the gain for large errors,
 slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(..., gain=...).)")
-      .def(py::init([](double g0, double ginf, double slope) {
-             AdaptiveGain a{g0, ginf, slope};
+      .def(py::init([](py::handle g0, py::handle ginf, py::handle slope) {
+             AdaptiveGain a{real(g0, "at_zero"), real(ginf, "at_infinity"), real(slope, "slope_at_zero")};
              ServoOptions o;
              o.adaptive_gain = a;
              if (!a.enabled()) throw py::value_error("adaptive_gain.at_zero must be finite and > 0, got 0");
@@ -299,24 +297,25 @@ slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(.
                ", slope_at_zero=" + number(a.slope_at_zero) + ")";
       });
 
-  py::class_<ServoOutput>(m, "ServoResult", "Result of one Servo.update().")
+  py::class_<ServoOutput, std::shared_ptr<ServoOutput>>(m, "ServoResult", R"(Result of one Servo.update().
+
+A snapshot that owns its buffer: error, jacobian and velocity are read-only numpy views of it
+(no copy is made, whether they are read or not), valid for as long as they or the result are
+referenced; later updates never change them (they write into buffers no result holds).)")
       .def_readonly("status", &ServoOutput::status)
-      .def_readonly("velocity", &ServoOutput::velocity, "Camera twist (6,): Tx, Ty, Tz (m/s), wx, wy, wz (rad/s).")
-      .def_readonly("error", &ServoOutput::error, "Feature error f (-) f* (M,).")
+      .def_readonly("velocity", &ServoOutput::velocity,
+                    "Camera twist (6,): Tx, Ty, Tz (m/s), wx, wy, wz (rad/s). Read-only view.")
+      .def_readonly("error", &ServoOutput::error, "Feature error f (-) f* (M,). Read-only view.")
       .def_readonly("error_norm", &ServoOutput::error_norm, "Euclidean norm of error.")
-      .def_readonly("jacobian", &ServoOutput::jacobian, "Interaction matrix used (M, 6).")
-      .def_readonly("sigma_min", &ServoOutput::sigma_min,
-                    "Smallest singular value of jacobian; NaN if not computed (diagnostics=False with damping > 0).")
-      .def_readonly("sigma_max", &ServoOutput::sigma_max,
-                    "Largest singular value of jacobian; NaN if not computed (diagnostics=False with damping > 0).")
-      .def_property_readonly(
-          "condition",
-          [](const ServoOutput& o) {
-            // NaN propagates when the singular values were not computed; inf only for a truly singular J.
-            if (std::isnan(o.sigma_min) || std::isnan(o.sigma_max)) return std::numeric_limits<double>::quiet_NaN();
-            return o.sigma_min > 0.0 ? o.sigma_max / o.sigma_min : std::numeric_limits<double>::infinity();
-          },
-          "sigma_max / sigma_min (inf when singular; NaN if the singular values were not computed).")
+      .def_readonly("jacobian", &ServoOutput::jacobian, "Interaction matrix used (M, 6). Read-only view.")
+      .def_property_readonly("sigma_min", &ServoOutput::sigma_min,
+                             "Smallest singular value of jacobian; NaN if not computed (diagnostics=False, or a refused\n"
+                             "input). Computed when first read (exact eigenvalues of J^T J, ~0.5 us; relative error\n"
+                             "~eps cond(J)^2) unless the step had it anyway (exact_diagnostics, QR + SVD route).")
+      .def_property_readonly("sigma_max", &ServoOutput::sigma_max,
+                             "Largest singular value of jacobian (to rounding); NaN if not computed. Computed when read.")
+      .def_property_readonly("condition", &ServoOutput::condition,
+                             "sigma_max / sigma_min (inf when sigma_min = 0; NaN if not computed).")
       .def_readonly("polar_fallbacks", &ServoOutput::polar_fallbacks,
                     "Polar blocks computed as Cartesian this step (point within polar_min_radius of the centre).")
       .def_readonly("gain", &ServoOutput::gain, "The gain applied this step (constant, or adaptive gain of error_norm).")
@@ -327,30 +326,36 @@ slope_at_zero >= 0 the rate at which the gain falls at x = 0. Pass it as Servo(.
                     "update_pixels: largest distance (pixels) between a point and its desired point; NaN after update.")
       .def("__repr__", [](const ServoOutput& o) {
         return "ServoResult(status=" + std::string(py::str(py::cast(o.status))) +
-               ", error_norm=" + std::to_string(o.error_norm) + ", sigma_min=" + std::to_string(o.sigma_min) + ")";
+               ", error_norm=" + number(o.error_norm) + ", sigma_min=" + number(o.sigma_min()) + ")";
       });
 
   py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
 
 Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
-      max_linear_speed=inf, max_angular_speed=inf, camera=None)
-  gain      gamma > 0 (1/s), or an AdaptiveGain (gain as a function of the error norm)
-  damping   lambda >= 0: 0 = Moore-Penrose (SVD), > 0 = damped least squares
+      max_linear_speed=inf, max_angular_speed=inf, camera=None, exact_diagnostics=False)
+  gain      gamma in (0, 1e250] (1/s), or an AdaptiveGain (gain as a function of the error norm)
+  damping   lambda >= 0: 0 = Moore-Penrose, > 0 = damped least squares; the twist equals
+            -gain * damped_pinv(jacobian, damping) @ error (to ~1e-10 relative) either way
   jacobian  "current" J(f, z), "desired" J(f*, z*) or "mean" of the two
+  diagnostics  Status.singular every step (exact, from the full-rank test of the solve,
+            nearly free) and ServoResult.sigma_min / sigma_max / condition, computed when
+            read; False: NaN, never singular
+  exact_diagnostics  compute sigma_min / sigma_max every step by QR + SVD (~4 us)
   max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
             factor so that |T| and |w| stay within them (direction kept); inf = no limit
   camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None)")
-      .def(py::init([](const Layout& layout, py::handle gain, double damping, const std::string& jac,
-                       double polar_min_radius, bool diagnostics, double max_linear_speed, double max_angular_speed,
-                       py::handle camera) {
+      .def(py::init([](const Layout& layout, py::handle gain, py::handle damping, const std::string& jac,
+                       py::handle polar_min_radius, bool diagnostics, py::handle max_linear_speed,
+                       py::handle max_angular_speed, py::handle camera, bool exact_diagnostics) {
              ServoOptions o;
              set_gain(o, gain);
-             o.damping = damping;
+             o.damping = real(damping, "damping");
              o.jacobian = interaction(jac);
-             o.polar_min_radius = polar_min_radius;
+             o.polar_min_radius = real(polar_min_radius, "polar_min_radius");
              o.diagnostics = diagnostics;
-             o.max_linear_speed = max_linear_speed;
-             o.max_angular_speed = max_angular_speed;
+             o.exact_diagnostics = exact_diagnostics;
+             o.max_linear_speed = real(max_linear_speed, "max_linear_speed");
+             o.max_angular_speed = real(max_angular_speed, "max_angular_speed");
              PyServo s(layout, o);
              py_servo::set_camera(s.servo, camera);
              return s;
@@ -358,22 +363,22 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
            py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
            py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true,
            py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
-           py::arg("camera") = py::none())
+           py::arg("camera") = py::none(), py::arg("exact_diagnostics") = false)
       .def_static(
           "automatic_hybrid",
-          [](py::handle n, py::handle gain, double switch_radius, double damping, const std::string& jac,
-             bool diagnostics, double max_linear_speed, double max_angular_speed, py::handle camera) {
+          [](py::handle n, py::handle gain, py::handle switch_radius, py::handle damping, const std::string& jac,
+             bool diagnostics, py::handle max_linear_speed, py::handle max_angular_speed, py::handle camera) {
             ServoOptions o;
             set_gain(o, gain);
-            o.damping = damping;
+            o.damping = real(damping, "damping");
             o.jacobian = interaction(jac);
             o.diagnostics = diagnostics;
-            o.max_linear_speed = max_linear_speed;
-            o.max_angular_speed = max_angular_speed;
-            check_switch_radius(switch_radius);
-            o.polar_min_radius = switch_radius;
-            const int n_points = int_arg(n, "n_points");
-            if (n_points < 1) throw py::value_error("n_points must be >= 1, got " + std::to_string(n_points));
+            o.max_linear_speed = real(max_linear_speed, "max_linear_speed");
+            o.max_angular_speed = real(max_angular_speed, "max_angular_speed");
+            const double r = real(switch_radius, "switch_radius");
+            check_switch_radius(r);
+            o.polar_min_radius = r;
+            const int n_points = int_in(n, "n_points", 1, max_points);
             PyServo s(Layout::polar(n_points), o);
             py_servo::set_camera(s.servo, camera);
             return s;
@@ -390,9 +395,11 @@ counts the points computed as Cartesian.)")
            py::arg("depth_desired") = py::none(),
            R"(One control step.
 
-uv, uv_desired (N, 2): current and desired points, normalised coordinates.
-depth, depth_desired: metres, > 0, scalar or (N,); depth_desired is needed for
-jacobian="desired" or "mean". Returns a ServoResult.)")
+uv, uv_desired (N, 2): current and desired points, normalised coordinates, |u|, |v| <= 10
+(larger values look like pixels: ibvs.CameraModel.normalize converts them).
+depth, depth_desired: metres, in [1e-6, 1e6], scalar or (N,); depth_desired is needed for
+jacobian="desired" or "mean" (and must hold N depths whenever given).
+Returns a ServoResult (a snapshot: see its docstring). Bad input raises ValueError/TypeError.)")
       .def("update_pixels", &PyServo::update_pixels, py::arg("pixels"), py::arg("depth"), py::arg("pixels_desired"),
            py::arg("depth_desired") = py::none(),
            R"(One control step from pixels, with the servo's camera model (Servo(..., camera=...)).
@@ -414,25 +421,25 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
           "The constant gain (float) or the AdaptiveGain.")
       .def_property(
           "max_linear_speed", [](const PyServo& s) { return s.servo.options().max_linear_speed; },
-          [](PyServo& s, double x) {
+          [](PyServo& s, py::handle x) {
             ServoOptions o = s.servo.options();
-            o.max_linear_speed = x;
+            o.max_linear_speed = real(x, "max_linear_speed");
             s.servo.set_options(o);
           },
           "Limit on |T| (m/s), inf = none.")
       .def_property(
           "max_angular_speed", [](const PyServo& s) { return s.servo.options().max_angular_speed; },
-          [](PyServo& s, double x) {
+          [](PyServo& s, py::handle x) {
             ServoOptions o = s.servo.options();
-            o.max_angular_speed = x;
+            o.max_angular_speed = real(x, "max_angular_speed");
             s.servo.set_options(o);
           },
           "Limit on |w| (rad/s), inf = none.")
       .def_property(
           "damping", [](const PyServo& s) { return s.servo.options().damping; },
-          [](PyServo& s, double d) {
+          [](PyServo& s, py::handle d) {
             ServoOptions o = s.servo.options();
-            o.damping = d;
+            o.damping = real(d, "damping");
             s.servo.set_options(o);
           })
       .def_property_readonly("jacobian_mode", [](const PyServo& s) { return interaction_name(s.servo.options().jacobian); })

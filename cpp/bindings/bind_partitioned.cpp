@@ -13,8 +13,10 @@ using namespace ibvs;
 using namespace ibvs::py_convert;
 using ibvs::py_servo::PyPartitioned;
 
-// Python's PartitionedServo.update: numpy arguments, validate() (raises), then update().
-ServoOutput PyPartitioned::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj) {
+// Python's PartitionedServo.update: numpy arguments, validate() (raises), then update() into a free
+// output buffer (returned without a copy, as Servo.update).
+std::shared_ptr<ServoOutput> PyPartitioned::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj,
+                                                   py::handle zd_obj) {
   const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
   const auto uv = points(uv_a, "uv");
   const auto uvd = points(uvd_a, "uv_desired");
@@ -23,23 +25,34 @@ ServoOutput PyPartitioned::update(py::handle uv_obj, py::handle depth_obj, py::h
   if (zd_obj.is_none()) zd = z;
   else depths(zd_obj, "depth_desired", n, zd);
   servo.validate(uv, z, uvd);
-  servo.update(uv, z, uvd, zd, out);
+  if (zd.size() != n)  // accepted and unused, but update() refuses a wrong size: raise as it would
+    throw py::value_error("depth_desired must hold " + std::to_string(n) + " depths, got " + std::to_string(zd.size()));
+  std::shared_ptr<ServoOutput> out = outputs.next();
+  servo.update(uv, z, uvd, zd, *out);
   return out;
 }
 
 namespace {
 
-void check_depths(const Eigen::Ref<const Points>& p, const Eigen::VectorXd& z) {
-  if (z.size() != p.cols()) throw py::value_error("depth must hold one depth per point");
-  for (Eigen::Index k = 0; k < z.size(); ++k)
-    if (!(z(k) > 0.0) || !std::isfinite(z(k))) throw py::value_error("depth must be finite and > 0");
+// uv (N, 2) checked as the core's validate path checks points (finite, within the coordinate bound).
+Eigen::Map<const Points> checked_points(const CArray& a) {
+  const auto p = points(a, "uv");
+  validate_points(p, "uv");
+  return p;
+}
+
+// Segment indices: distinct ints in [0, N).
+std::pair<int, int> segment_indices(py::handle i, py::handle j, Eigen::Index n) {
+  const int a = int_in(i, "i", 0, n - 1), b = int_in(j, "j", 0, n - 1);
+  if (a == b) throw py::value_error("i and j must be distinct point indices");
+  return {a, b};
 }
 
 std::pair<int, int> segment_arg(py::handle s) {
   if (!py::isinstance<py::sequence>(s) || py::isinstance<py::str>(s) || py::len(s) != 2)
     throw py::type_error("segment must be a pair of point indices (i, j)");
   const auto q = py::reinterpret_borrow<py::sequence>(s);
-  return {q[0].cast<int>(), q[1].cast<int>()};
+  return {int_in(q[0], "segment[0]", 0, max_points), int_in(q[1], "segment[1]", 0, max_points)};
 }
 
 }  // namespace
@@ -53,17 +66,16 @@ PartitionedServo(n_points, gain, damping=0.0, segment=(0, 1), max_linear_speed=i
   Tz   = gain * ln(sigma* / sigma),       sigma = sqrt(area of the point polygon, points in order)
   v_xy = -J_xy^+ (gain e + J_z v_z)       the Cartesian law for (Tx, Ty, wx, wy)
 n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesian error and Jacobian).)")
-      .def(py::init([](py::handle n, double gain, double damping, py::handle segment, double vmax, double wmax,
-                       py::handle camera) {
-             if (py::isinstance<py::bool_>(n) || !py::hasattr(n, "__index__"))
-               throw py::type_error("n_points must be an int");
+      .def(py::init([](py::handle n, py::handle gain, py::handle damping, py::handle segment, py::handle vmax,
+                       py::handle wmax, py::handle camera) {
+             const int n_points = int_in(n, "n_points", 3, max_realtime_rows / 2);
              PartitionedOptions o;
-             o.gain = gain;
-             o.damping = damping;
+             o.gain = real(gain, "gain");
+             o.damping = real(damping, "damping");
              std::tie(o.segment_first, o.segment_second) = segment_arg(segment);
-             o.max_linear_speed = vmax;
-             o.max_angular_speed = wmax;
-             PyPartitioned s(n.cast<int>(), o);
+             o.max_linear_speed = real(vmax, "max_linear_speed");
+             o.max_angular_speed = real(wmax, "max_angular_speed");
+             PyPartitioned s(n_points, o);
              py_servo::set_camera(s.servo, camera);
              return s;
            }),
@@ -83,9 +95,9 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
       .def_property_readonly("n_points", [](const PyPartitioned& s) { return s.servo.layout().n_points(); })
       .def_property(
           "gain", [](const PyPartitioned& s) { return s.servo.options().gain; },
-          [](PyPartitioned& s, double g) {
+          [](PyPartitioned& s, py::handle g) {
             PartitionedOptions o = s.servo.options();
-            o.gain = g;
+            o.gain = real(g, "gain");
             s.servo.set_options(o);
           })
       .def_property_readonly("damping", [](const PyPartitioned& s) { return s.servo.options().damping; })
@@ -105,42 +117,43 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
 
   m.def(
       "segment_angle",
-      [](py::handle uv, int i, int j) {
+      [](py::handle uv, py::handle i, py::handle j) {
         const CArray a = as_array(uv, "uv");
-        const auto p = points(a, "uv");
-        if (i < 0 || j < 0 || i >= p.cols() || j >= p.cols() || i == j)
-          throw py::value_error("segment indices must be distinct and in range");
-        return segment_angle(p, i, j);
+        const auto p = checked_points(a);
+        const auto [k, l] = segment_indices(i, j, p.cols());
+        return segment_angle(p, k, l);
       },
       py::arg("uv"), py::arg("i"), py::arg("j"), "theta_z: angle of the image segment from point i to point j.");
   m.def(
       "segment_angle_jacobian",
-      [](py::handle uv, py::handle depth, int i, int j) {
+      [](py::handle uv, py::handle depth, py::handle i, py::handle j) {
         const CArray a = as_array(uv, "uv");
-        const auto p = points(a, "uv");
+        const auto p = checked_points(a);
         Eigen::VectorXd z;
         depths(depth, "depth", p.cols(), z);
-        check_depths(p, z);
-        if (i < 0 || j < 0 || i >= p.cols() || j >= p.cols() || i == j)
-          throw py::value_error("segment indices must be distinct and in range");
-        return Eigen::Matrix<double, 1, 6>(segment_angle_jacobian(p, z, i, j));
+        validate_depths(z, "depth", p.cols());
+        const auto [k, l] = segment_indices(i, j, p.cols());
+        if ((p.col(k) - p.col(l)).squaredNorm() == 0.0)
+          throw py::value_error("uv: points i and j coincide (theta_z undefined)");
+        return Eigen::Matrix<double, 1, 6>(segment_angle_jacobian(p, z, k, l));
       },
       py::arg("uv"), py::arg("depth"), py::arg("i"), py::arg("j"), "(6,) d theta_z/dt = J @ v.");
   m.def(
       "area_scale",
       [](py::handle uv) {
         const CArray a = as_array(uv, "uv");
-        return area_scale(points(a, "uv"));
+        return area_scale(checked_points(a));
       },
       py::arg("uv"), "sigma = sqrt(|area|) of the polygon of the points in order.");
   m.def(
       "area_scale_jacobian",
       [](py::handle uv, py::handle depth) {
         const CArray a = as_array(uv, "uv");
-        const auto p = points(a, "uv");
+        const auto p = checked_points(a);
         Eigen::VectorXd z;
         depths(depth, "depth", p.cols(), z);
-        check_depths(p, z);
+        validate_depths(z, "depth", p.cols());
+        if (area_scale(p) == 0.0) throw py::value_error("uv: the points enclose no area (sigma = 0)");
         return Eigen::Matrix<double, 1, 6>(area_scale_jacobian(p, z));
       },
       py::arg("uv"), py::arg("depth"), "(6,) d sigma/dt = J @ v.");

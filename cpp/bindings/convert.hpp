@@ -1,6 +1,7 @@
 // numpy <-> Eigen argument conversion for the bindings. Each helper names the
-// argument in its error: TypeError for what is not an array of numbers,
-// ValueError for a wrong shape. Values are checked by the C++ validate path.
+// argument in its error: TypeError for what is not an array of real numbers
+// (complex, bool, strings, datetimes, objects), ValueError for a wrong shape or
+// an integer out of range. Values are checked by the C++ validate path.
 #pragma once
 
 #include "ibvs/layout.hpp"
@@ -9,6 +10,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <climits>
 #include <string>
 
 namespace ibvs::py_convert {
@@ -22,13 +24,37 @@ inline std::string shape_of(const py::array& a) {
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
 
-/// Any array-like of real numbers as a C-ordered float64 array (no copy when it already is one).
+inline std::string type_name(py::handle obj) { return py::str(py::type::handle_of(obj).attr("__name__")); }
+
+[[noreturn]] inline void not_real(const char* name, const std::string& what) {
+  throw py::type_error(std::string(name) + " must be an array of real numbers, got " + what);
+}
+
+/// Any array-like of real numbers (numpy dtype kind i, u or f: not bool,
+/// complex, string, datetime or object) as a C-ordered float64 array. No copy
+/// when it already is one; other real dtypes are converted exactly (float32,
+/// integers up to 2^53), so equivalent inputs give bit-identical results.
 inline CArray as_array(py::handle obj, const char* name) {
-  if (!obj.is_none() && !py::isinstance<py::str>(obj) && !py::isinstance<py::bytes>(obj)) {
-    if (CArray a = CArray::ensure(obj)) return a;
+  if (obj.is_none() || py::isinstance<py::str>(obj) || py::isinstance<py::bytes>(obj) ||
+      py::isinstance<py::bool_>(obj))
+    not_real(name, type_name(obj));
+  if (CArray::check_(obj)) return py::reinterpret_borrow<CArray>(obj);  // float64, C-ordered: as is
+  py::array a;
+  if (py::isinstance<py::array>(obj)) {
+    a = py::reinterpret_borrow<py::array>(obj);
+  } else {
+    a = py::array::ensure(obj);  // dtype inferred; empty (error cleared) for what numpy cannot read
+    if (!a) not_real(name, type_name(obj));
   }
-  throw py::type_error(std::string(name) + " must be an array of real numbers, got " +
-                       std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  const char kind = a.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u')
+    not_real(name, "an array of dtype " + std::string(py::str(a.dtype())));
+  CArray c = CArray::ensure(a);
+  if (!c) {
+    PyErr_Clear();
+    not_real(name, type_name(obj));
+  }
+  return c;
 }
 
 /// (N, 2) points, or OpenCV's (N, 1, 2), as the 2 x N column-major matrix sharing the same memory.
@@ -52,10 +78,19 @@ inline MatrixX6 matrix_x6(const CArray& a, const char* name) {
   return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>>(a.data(), a.shape(0), 6);
 }
 
+/// A real scalar (Python int or float, numpy real scalar or 0-d array); not
+/// bool, complex or str. TypeError / ValueError naming the argument.
+inline double real(py::handle obj, const char* name) {
+  if (PyFloat_CheckExact(obj.ptr())) return PyFloat_AS_DOUBLE(obj.ptr());
+  const CArray a = as_array(obj, name);
+  if (a.ndim() != 0) throw py::type_error(std::string(name) + " must be a real number, got shape " + shape_of(a));
+  return *a.data();
+}
+
 /// Depth: a scalar for every point, or an (n,) vector; written into `out` (size n).
 inline void depths(py::handle obj, const char* name, Eigen::Index n, Eigen::VectorXd& out) {
-  if (py::isinstance<py::float_>(obj) || py::isinstance<py::int_>(obj)) {
-    out.setConstant(n, obj.cast<double>());
+  if (PyFloat_CheckExact(obj.ptr())) {
+    out.setConstant(n, PyFloat_AS_DOUBLE(obj.ptr()));
     return;
   }
   const CArray a = as_array(obj, name);
@@ -64,6 +99,21 @@ inline void depths(py::handle obj, const char* name, Eigen::Index n, Eigen::Vect
     return;
   }
   out = vector(a, name);
+}
+
+/// A Python integer (anything with __index__, not bool) within [lo, hi]:
+/// TypeError / ValueError naming the argument, also for integers too large for C.
+inline int int_in(py::handle obj, const std::string& name, long long lo, long long hi) {
+  if (py::isinstance<py::bool_>(obj) || !py::hasattr(obj, "__index__"))
+    throw py::type_error(name + " must be an int, got " + type_name(obj));
+  auto i = py::reinterpret_steal<py::object>(PyNumber_Index(obj.ptr()));
+  if (!i) throw py::error_already_set();
+  int overflow = 0;
+  const long long v = PyLong_AsLongLongAndOverflow(i.ptr(), &overflow);
+  if (overflow || v < lo || v > hi)
+    throw py::value_error(name + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                          std::string(py::str(i)));
+  return static_cast<int>(v);
 }
 
 }  // namespace ibvs::py_convert

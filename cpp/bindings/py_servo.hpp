@@ -1,7 +1,8 @@
 // The Python faces of the two control laws (ibvs.Servo, ibvs.PartitionedServo):
-// the C++ object plus its output and depth buffers. Shared by the binding files
-// so that bind_sim.cpp can read the C++ servo a Python object holds (pybind11
-// matches the type by its typeid, hence a named namespace, not an anonymous one).
+// the C++ object plus its output buffers and depth buffers. Shared by the
+// binding files so that bind_sim.cpp can read the C++ servo a Python object
+// holds (pybind11 matches the type by its typeid, hence a named namespace, not
+// an anonymous one).
 #pragma once
 
 #include "ibvs/partitioned.hpp"
@@ -9,32 +10,63 @@
 
 #include <pybind11/pybind11.h>
 
+#include <array>
+#include <memory>
+
 namespace ibvs::py_servo {
 
 namespace py = pybind11;
 
+/// The ServoOutputs that update() writes and returns as ServoResult, without a
+/// copy: each result is an immutable snapshot owning its buffer (its error and
+/// jacobian arrays are read-only views of it). update() writes into a buffer
+/// that no result holds any more, so the usual loop (`res = servo.update(...)`)
+/// alternates between two buffers and allocates nothing; a buffer still held
+/// (results kept in a list) is left to its holders and replaced by a new one.
+class OutputPool {
+ public:
+  explicit OutputPool(const Layout& layout) : layout_(layout) {
+    for (auto& p : slots_) p = std::make_shared<ServoOutput>(layout_);
+  }
+  /// A buffer only the pool holds.
+  std::shared_ptr<ServoOutput> next() {
+    for (auto& p : slots_)
+      if (p.use_count() == 1) return p;
+    auto& p = slots_[turn_++ % slots_.size()];
+    p = std::make_shared<ServoOutput>(layout_);
+    return p;
+  }
+
+ private:
+  Layout layout_;
+  std::array<std::shared_ptr<ServoOutput>, 3> slots_;
+  std::size_t turn_ = 0;
+};
+
 struct PyServo {
-  PyServo(Layout layout, ServoOptions o) : servo(std::move(layout), o), out(servo.layout()) {}
+  PyServo(Layout layout, ServoOptions o) : servo(std::move(layout), o), outputs(servo.layout()) {}
   Servo servo;
-  ServoOutput out;
+  OutputPool outputs;
   Eigen::VectorXd z, zd;
 
   /// validate() then update() on numpy arguments (bind_core.cpp).
-  ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
+  std::shared_ptr<ServoOutput> update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
   /// validate_pixels() then update_pixels() (bind_camera.cpp).
-  ServoOutput update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj);
+  std::shared_ptr<ServoOutput> update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj,
+                                             py::handle zd_obj);
 };
 
 struct PyPartitioned {
-  PyPartitioned(int n, PartitionedOptions o) : servo(n, o), out(servo.layout()) {}
+  PyPartitioned(int n, PartitionedOptions o) : servo(n, o), outputs(servo.layout()) {}
   PartitionedServo servo;
-  ServoOutput out;
+  OutputPool outputs;
   Eigen::VectorXd z, zd;
 
   /// validate() then update() on numpy arguments (bind_partitioned.cpp).
-  ServoOutput update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
+  std::shared_ptr<ServoOutput> update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
   /// validate_pixels() then update_pixels() (bind_camera.cpp).
-  ServoOutput update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj, py::handle zd_obj);
+  std::shared_ptr<ServoOutput> update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj,
+                                             py::handle zd_obj);
 };
 
 /// `camera` in Python: None or an ibvs.CameraModel (TypeError naming camera otherwise).

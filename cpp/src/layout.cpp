@@ -31,8 +31,14 @@ inline void direction(double u, double v, double r, double ua, double va, double
   }
 }
 
+void check_count(long long n, const char* who) {
+  if (n < 1 || n > max_points)
+    throw std::invalid_argument(std::string("ibvs: Layout.") + who + ": n must be in [1, " + std::to_string(max_points) +
+                                "], got " + std::to_string(n));
+}
+
 Layout uniform(int n, std::initializer_list<Representation> reps, const char* who) {
-  if (n < 1) throw std::invalid_argument(std::string("ibvs: Layout.") + who + ": n must be >= 1, got " + std::to_string(n));
+  check_count(n, who);
   std::vector<Block> blocks;
   blocks.reserve(static_cast<std::size_t>(n) * reps.size());
   for (int i = 0; i < n; ++i)
@@ -40,31 +46,62 @@ Layout uniform(int n, std::initializer_list<Representation> reps, const char* wh
   return Layout(std::move(blocks), n);
 }
 
+// The uniform layouts describe() recognises: name and representations per point, in block order.
+struct Kind {
+  const char* name;
+  Representation reps[2];
+  std::size_t per;
+};
+const Kind kinds[] = {{"cartesian", {Representation::cartesian}, 1},
+                      {"polar", {Representation::polar}, 1},
+                      {"stacked", {Representation::cartesian, Representation::polar}, 2},
+                      {"cylindrical", {Representation::cylindrical}, 1}};
+
 }  // namespace
 
+// Linear time: a table of the (point, representation) pairs seen instead of comparing every pair.
 Layout::Layout(std::vector<Block> blocks, int n_points) : blocks_(std::move(blocks)) {
   if (blocks_.empty()) throw std::invalid_argument("ibvs: Layout: blocks must not be empty");
+  if (blocks_.size() > static_cast<std::size_t>(3) * max_points)
+    throw std::invalid_argument("ibvs: Layout: at most " + std::to_string(3LL * max_points) + " blocks, got " +
+                                std::to_string(blocks_.size()));
+  if (n_points > max_points)
+    throw std::invalid_argument("ibvs: Layout: n_points must be <= " + std::to_string(max_points) + ", got " +
+                                std::to_string(n_points));
   int max_index = -1;
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
     const Block& b = blocks_[k];
-    if (b.point < 0)
-      throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] has negative point index " +
-                                  std::to_string(b.point));
+    if (b.point < 0 || b.point >= max_points)
+      throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] has point index " +
+                                  std::to_string(b.point) + ", outside [0, " + std::to_string(max_points) + ")");
     if (b.representation != Representation::cartesian && b.representation != Representation::polar &&
         b.representation != Representation::cylindrical)
       throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] has an unknown representation");
-    for (std::size_t j = 0; j < k; ++j)
-      if (blocks_[j].point == b.point && blocks_[j].representation == b.representation)
-        throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] repeats (" +
-                                    std::to_string(b.point) + ", " + name_of(b.representation) + ")");
     max_index = std::max(max_index, b.point);
   }
   if (n_points < 0) n_points = max_index + 1;
   if (max_index >= n_points)
     throw std::invalid_argument("ibvs: Layout: point index " + std::to_string(max_index) +
                                 " out of range for n_points = " + std::to_string(n_points));
+  std::vector<unsigned char> seen(static_cast<std::size_t>(n_points), 0);
+  for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    const Block& b = blocks_[k];
+    const auto bit = static_cast<unsigned char>(1u << static_cast<unsigned>(b.representation));
+    unsigned char& s = seen[static_cast<std::size_t>(b.point)];
+    if (s & bit)
+      throw std::invalid_argument("ibvs: Layout: blocks[" + std::to_string(k) + "] repeats (" +
+                                  std::to_string(b.point) + ", " + name_of(b.representation) + ")");
+    s = static_cast<unsigned char>(s | bit);
+  }
   n_points_ = n_points;
 }
+
+// Special members out of line (the block vector is allocated and freed by the library's code).
+Layout::Layout(const Layout&) = default;
+Layout::Layout(Layout&&) noexcept = default;
+Layout& Layout::operator=(const Layout&) = default;
+Layout& Layout::operator=(Layout&&) noexcept = default;
+Layout::~Layout() = default;
 
 Layout Layout::cartesian(int n) { return uniform(n, {Representation::cartesian}, "cartesian"); }
 Layout Layout::polar(int n) { return uniform(n, {Representation::polar}, "polar"); }
@@ -80,15 +117,15 @@ bool Layout::operator==(const Layout& o) const noexcept {
 }
 
 std::string Layout::describe() const {
-  for (const char* kind : {"cartesian", "polar", "stacked", "cylindrical"}) {
-    const std::string k(kind);
-    const Layout ref = k == "cartesian" ? cartesian(n_points_)
-                       : k == "polar"   ? polar(n_points_)
-                       : k == "stacked" ? stacked(n_points_)
-                                        : cylindrical(n_points_);
-    if (ref == *this) return k + "(" + std::to_string(n_points_) + ")";
+  const auto n = static_cast<std::size_t>(n_points_);
+  for (const Kind& kind : kinds) {
+    bool same = blocks_.size() == n * kind.per;
+    for (std::size_t k = 0; same && k < blocks_.size(); ++k)
+      same = blocks_[k].point == static_cast<int>(k / kind.per) && blocks_[k].representation == kind.reps[k % kind.per];
+    if (same) return std::string(kind.name) + "(" + std::to_string(n_points_) + ")";
   }
   std::string s = "[";
+  s.reserve(blocks_.size() * 20);
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
     if (k) s += ", ";
     s += "(" + std::to_string(blocks_[k].point) + ", '" + name_of(blocks_[k].representation) + "')";
@@ -121,7 +158,7 @@ void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
       const double r = std::sqrt(u * u + v * v);
       double c, s;
       direction(u, v, r, u, v, r, c, s);
-      J.middleRows<2>(row) = cylindrical_jacobian(r, c, s, std::atan2(v, u), z);
+      J.middleRows<2>(row) = cylindrical_jacobian(r, c, s, polar_angle(u, v), z);
       row += 2;
       continue;
     }
@@ -150,6 +187,14 @@ void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>
   }
 }
 
+void validate_points(const Eigen::Ref<const Points>& uv, const char* name) {
+  detail::check_points(uv, name, static_cast<int>(uv.cols()));
+}
+
+void validate_depths(const Eigen::Ref<const Eigen::VectorXd>& depth, const char* name, Eigen::Index n) {
+  detail::check_depth(depth, name, static_cast<int>(n));
+}
+
 Eigen::VectorXd features(const Layout& layout, const Eigen::Ref<const Points>& uv) {
   detail::check_points(uv, "uv", layout.n_points());
   Eigen::VectorXd f(layout.rows());
@@ -167,10 +212,38 @@ MatrixX6 jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
   return J;
 }
 
+namespace {
+
+// Feature values a layout's features() can produce (within the coordinate bound): Cartesian
+// |u|, |v| <= max_normalized_coordinate; polar and cylindrical 0 <= r <= sqrt(2) of it, polar
+// theta any finite angle (it is wrapped), cylindrical |r theta| <= pi r (up to rounding).
+void check_feature_values(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f, const char* name) {
+  const double rmax = std::sqrt(2.0) * max_normalized_coordinate;
+  Eigen::Index row = 0;
+  for (const Block& b : layout.blocks()) {
+    const double a = f(row), c = f(row + 1);
+    const bool ok = b.representation == Representation::cartesian
+                        ? detail::valid_coordinate(a) && detail::valid_coordinate(c)
+                        : a >= 0.0 && a <= rmax &&
+                              (b.representation == Representation::polar || std::abs(c) <= pi * a * (1.0 + 1e-12));
+    if (!ok)
+      throw std::invalid_argument(std::string("ibvs: ") + name + "[" + std::to_string(row) + ":" +
+                                  std::to_string(row + 2) + "] = (" + detail::number(a) + ", " + detail::number(c) +
+                                  ") is not a " + name_of(b.representation) +
+                                  " feature of a point within the normalised-coordinate bound " +
+                                  detail::number(max_normalized_coordinate) + " (pixels? see ibvs.CameraModel.normalize)");
+    row += 2;
+  }
+}
+
+}  // namespace
+
 Eigen::VectorXd feature_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
                               const Eigen::Ref<const Eigen::VectorXd>& f_desired) {
   detail::check_features(f, "f", layout.rows());
   detail::check_features(f_desired, "f_desired", layout.rows());
+  check_feature_values(layout, f, "f");
+  check_feature_values(layout, f_desired, "f_desired");
   Eigen::VectorXd e(layout.rows());
   stacked_error(layout, f, f_desired, e);
   return e;

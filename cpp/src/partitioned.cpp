@@ -63,14 +63,21 @@ struct PartitionedServo::Work {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig;
 };
 
-PartitionedServo::PartitionedServo(int n_points, PartitionedOptions options)
-    : layout_(Layout::cartesian(n_points)) {
+namespace {
+// n_points checked before the layout is built (a huge n is refused at once).
+int checked_points(int n_points) {
   if (n_points < 3)
     throw std::invalid_argument("ibvs: n_points must be >= 3 for the partitioned law (the polygon needs an area), got " +
                                 std::to_string(n_points));
-  if (2 * n_points > max_realtime_rows)
+  if (n_points > max_realtime_rows / 2)
     throw std::invalid_argument("ibvs: n_points must be <= " + std::to_string(max_realtime_rows / 2) + ", got " +
                                 std::to_string(n_points));
+  return n_points;
+}
+}  // namespace
+
+PartitionedServo::PartitionedServo(int n_points, PartitionedOptions options)
+    : layout_(Layout::cartesian(checked_points(n_points))) {
   set_options(options);
   work_ = std::make_unique<Work>(layout_.rows());
 }
@@ -80,9 +87,11 @@ PartitionedServo::PartitionedServo(PartitionedServo&&) noexcept = default;
 PartitionedServo& PartitionedServo::operator=(PartitionedServo&&) noexcept = default;
 
 void PartitionedServo::validate(const PartitionedOptions& o) const {
-  if (!(o.gain > 0.0) || !std::isfinite(o.gain))
-    throw std::invalid_argument("ibvs: gain must be finite and > 0, got " + std::to_string(o.gain));
+  detail::check_gain(o.gain, "gain");
   detail::check_nonnegative(o.damping, "damping");
+  if (o.damping > max_matrix_entry)
+    throw std::invalid_argument("ibvs: damping = " + detail::number(o.damping) + " is above the limit " +
+                                detail::number(max_matrix_entry));
   const int n = layout_.n_points();
   if (o.segment_first < 0 || o.segment_first >= n || o.segment_second < 0 || o.segment_second >= n ||
       o.segment_first == o.segment_second)
@@ -120,18 +129,14 @@ Status PartitionedServo::update(const Eigen::Ref<const Points>& uv, const Eigen:
   out.pixel_error = std::numeric_limits<double>::quiet_NaN();  // set by update_pixels() after this
   const int n = layout_.n_points(), i = options_.segment_first, j = options_.segment_second;
   const Eigen::Index m = layout_.rows();
+  // Exactly what validate() refuses.
   bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && out.error.size() == m &&
-            out.jacobian.rows() == m && uv.allFinite() && uv_desired.allFinite();
-  for (Eigen::Index k = 0; ok && k < depth.size(); ++k) ok = depth(k) > 0.0 && std::isfinite(depth(k));
-  const double sigma = ok ? area_scale(uv) : 0.0, sigma_d = ok ? area_scale(uv_desired) : 0.0;
-  ok = ok && sigma > 0.0 && sigma_d > 0.0 && (uv.col(i) - uv.col(j)).squaredNorm() > 0.0 &&
+            out.jacobian.rows() == m && detail::valid_points(uv) && detail::valid_points(uv_desired) &&
+            detail::valid_depths(depth);
+  ok = ok && signed_area(uv) != 0.0 && signed_area(uv_desired) != 0.0 && (uv.col(i) - uv.col(j)).squaredNorm() > 0.0 &&
        (uv_desired.col(i) - uv_desired.col(j)).squaredNorm() > 0.0;
-  if (!ok) {
-    out.velocity.setZero();
-    out.saturated = false;
-    out.saturation_scale = 1.0;
-    return out.status = Status::invalid_input;
-  }
+  if (!ok) return detail::refuse(out);
+  const double sigma = area_scale(uv), sigma_d = area_scale(uv_desired);
   Work& w = *work_;
   const double g = options_.gain;
   for (int k = 0; k < n; ++k) {
@@ -164,8 +169,7 @@ Status PartitionedServo::update(const Eigen::Ref<const Points>& uv, const Eigen:
   out.error = w.e.head(m);
   out.error_norm = out.error.norm();
   out.jacobian = w.J.topRows(m);
-  out.sigma_min = smin;
-  out.sigma_max = smax;
+  out.set_singular_values(smin, smax);
   out.polar_fallbacks = 0;
   out.gain = g;
   out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);

@@ -10,16 +10,28 @@
 namespace ibvs {
 namespace {
 
-void check_matrix(const Eigen::Ref<const MatrixX6>& J) {
+// Returns max |J_ij| after checking the scale limits (limits.hpp).
+double check_matrix(const Eigen::Ref<const MatrixX6>& J) {
   if (J.rows() == 0) throw std::invalid_argument("ibvs: J must have at least one row");
   if (!J.allFinite()) throw std::invalid_argument("ibvs: J must contain only finite values");
+  const double m = J.cwiseAbs().maxCoeff();
+  if (m > max_matrix_entry)
+    throw std::invalid_argument("ibvs: J has an entry of magnitude " + detail::number(m) + ", above the limit " +
+                                detail::number(max_matrix_entry));
+  return m;
 }
 
 }  // namespace
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> damped_pinv(const Eigen::Ref<const MatrixX6>& J, double damping) {
-  check_matrix(J);
+  const double m = check_matrix(J);
+  if (m > 0.0 && m < 1.0 / max_matrix_entry)
+    throw std::invalid_argument("ibvs: J's largest entry " + detail::number(m) + " is below " +
+                                detail::number(1.0 / max_matrix_entry) + ": its pseudoinverse would overflow");
   detail::check_nonnegative(damping, "damping");
+  if (damping > max_matrix_entry)
+    throw std::invalid_argument("ibvs: damping = " + detail::number(damping) + " is above the limit " +
+                                detail::number(max_matrix_entry));
   // A dynamic column count lets JacobiSVD return the thin factors.
   const Eigen::MatrixXd A = J;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);

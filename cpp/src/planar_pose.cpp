@@ -11,6 +11,12 @@
 
 namespace ibvs {
 
+PlanarPose::PlanarPose(const PlanarPose&) = default;
+PlanarPose::PlanarPose(PlanarPose&&) noexcept = default;
+PlanarPose& PlanarPose::operator=(const PlanarPose&) = default;
+PlanarPose& PlanarPose::operator=(PlanarPose&&) noexcept = default;
+PlanarPose::~PlanarPose() = default;
+
 PlanarPose::PlanarPose(const Eigen::Matrix3Xd& points, int iterations) : points_(points), iterations_(iterations) {
   if (points_.cols() < 4)
     throw std::invalid_argument("ibvs: points: a planar pose needs at least 4 target points, got " +

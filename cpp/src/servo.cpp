@@ -106,24 +106,14 @@ struct Work {
     return fallbacks;
   }
 
-  // x = J+ e (damped or Moore-Penrose); returns true when J is rank-deficient
-  // (never on the damped route without diagnostics).
-  bool solve(const ServoOptions& o, Eigen::Index m, Twist& x, double& smin, double& smax) noexcept {
-    if (o.damping > 0.0) {
-      solver.normal(J);
-      const bool singular = o.diagnostics && solver.diagnostics(smin, smax);
-      solver.damped(J, e, o.damping, x);
-      return singular;
-    }
-    return solver.moore_penrose(J, e, m, x, smin, smax);
+  // x = J+ e by the route of solve.hpp, and what the options ask about J's singular values.
+  detail::Route solve(const ServoOptions& o, Eigen::Index m, Twist& x, detail::Spectrum& spectrum) noexcept {
+    const detail::Diagnostics d = !o.diagnostics         ? detail::Diagnostics::off
+                                  : o.exact_diagnostics ? detail::Diagnostics::exact
+                                                        : detail::Diagnostics::lazy;
+    return solver.solve(J, e, m, o.damping, d, x, spectrum);
   }
 };
-
-bool finite_positive(const Eigen::Ref<const Eigen::VectorXd>& z) noexcept {
-  for (Eigen::Index i = 0; i < z.size(); ++i)
-    if (!(z(i) > 0.0) || !std::isfinite(z(i))) return false;
-  return true;
-}
 
 }  // namespace
 
@@ -154,6 +144,59 @@ ServoInput::ServoInput(const Layout& layout)
 ServoOutput::ServoOutput(const Layout& layout)
     : error(Eigen::VectorXd::Zero(layout.rows())), jacobian(MatrixX6::Zero(layout.rows(), 6)) {}
 
+// Special members out of line: the buffers are allocated and freed by the library's code only.
+ServoInput::ServoInput(const ServoInput&) = default;
+ServoInput::ServoInput(ServoInput&&) noexcept = default;
+ServoInput& ServoInput::operator=(const ServoInput&) = default;
+ServoInput& ServoInput::operator=(ServoInput&&) noexcept = default;
+ServoInput::~ServoInput() = default;
+ServoOutput::ServoOutput(const ServoOutput&) = default;
+ServoOutput::ServoOutput(ServoOutput&&) noexcept = default;
+ServoOutput& ServoOutput::operator=(const ServoOutput&) = default;
+ServoOutput& ServoOutput::operator=(ServoOutput&&) noexcept = default;
+ServoOutput::~ServoOutput() = default;
+
+void ServoOutput::set_singular_values(double smin, double smax) noexcept {
+  sigma_min_ = smin;
+  sigma_max_ = smax;
+  pending_ = false;
+}
+
+void ServoOutput::set_gram(const Eigen::Matrix<double, 6, 6>& gram) noexcept {
+  gram_ = gram;
+  pending_ = true;
+}
+
+void ServoOutput::clear_singular_values() noexcept {
+  set_singular_values(std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN());
+}
+
+// The lazy part of the diagnostics: the exact eigenvalues of the kept J^T J (solve.hpp).
+void ServoOutput::resolve() const noexcept {
+  if (!pending_) return;
+  pending_ = false;
+  double smin = std::numeric_limits<double>::quiet_NaN(), smax = smin;
+  detail::Solver<6>::from_gram(gram_, smin, smax);
+  sigma_min_ = smin;
+  sigma_max_ = smax;
+}
+
+double ServoOutput::sigma_min() const noexcept {
+  resolve();
+  return sigma_min_;
+}
+
+double ServoOutput::sigma_max() const noexcept {
+  resolve();
+  return sigma_max_;
+}
+
+double ServoOutput::condition() const noexcept {
+  resolve();
+  if (std::isnan(sigma_min_) || std::isnan(sigma_max_)) return std::numeric_limits<double>::quiet_NaN();
+  return sigma_min_ > 0.0 ? sigma_max_ / sigma_min_ : std::numeric_limits<double>::infinity();
+}
+
 Servo::Servo(Layout layout, ServoOptions options) : layout_(std::move(layout)) {
   set_options(options);
   kernel_ = std::make_unique<Kernel>(layout_.rows());
@@ -164,25 +207,26 @@ Servo::Servo(Servo&&) noexcept = default;
 Servo& Servo::operator=(Servo&&) noexcept = default;
 
 void Servo::validate(const ServoOptions& o) {
-  if (!(o.gain > 0.0) || !std::isfinite(o.gain))
-    throw std::invalid_argument("ibvs: gain must be finite and > 0, got " + std::to_string(o.gain));
+  detail::check_gain(o.gain, "gain");
   detail::check_nonnegative(o.damping, "damping");
+  if (o.damping > max_matrix_entry)
+    throw std::invalid_argument("ibvs: damping = " + detail::number(o.damping) + " is above the limit " +
+                                detail::number(max_matrix_entry));
   detail::check_nonnegative(o.polar_min_radius, "polar_min_radius");
   const AdaptiveGain& a = o.adaptive_gain;
   if (a.enabled() || a.at_infinity != 0.0 || a.slope_at_zero != 0.0) {
-    if (!(a.at_zero > 0.0) || !std::isfinite(a.at_zero))
-      throw std::invalid_argument("ibvs: adaptive_gain.at_zero must be finite and > 0, got " + std::to_string(a.at_zero));
+    detail::check_gain(a.at_zero, "adaptive_gain.at_zero");
     if (!(a.at_infinity > 0.0) || !(a.at_infinity <= a.at_zero))
       throw std::invalid_argument("ibvs: adaptive_gain.at_infinity must be > 0 and <= at_zero, got " +
-                                  std::to_string(a.at_infinity));
+                                  detail::number(a.at_infinity));
     detail::check_nonnegative(a.slope_at_zero, "adaptive_gain.slope_at_zero");
   }
   if (!(o.max_linear_speed > 0.0))
     throw std::invalid_argument("ibvs: max_linear_speed must be > 0 (inf = no limit), got " +
-                                std::to_string(o.max_linear_speed));
+                                detail::number(o.max_linear_speed));
   if (!(o.max_angular_speed > 0.0))
     throw std::invalid_argument("ibvs: max_angular_speed must be > 0 (inf = no limit), got " +
-                                std::to_string(o.max_angular_speed));
+                                detail::number(o.max_angular_speed));
   if (o.jacobian != InteractionMatrix::current && o.jacobian != InteractionMatrix::desired &&
       o.jacobian != InteractionMatrix::mean)
     throw std::invalid_argument("ibvs: jacobian must be current, desired or mean");
@@ -200,7 +244,11 @@ void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
   detail::check_points(uv, "uv", n);
   detail::check_depth(depth, "depth", n);
   detail::check_points(uv_desired, "uv_desired", n);
+  // depth_desired: its size always (as update() checks it), its values when the mode uses them.
   if (options_.jacobian != InteractionMatrix::current) detail::check_depth(depth_desired, "depth_desired", n);
+  else if (depth_desired.size() != n)
+    throw std::invalid_argument("ibvs: depth_desired must hold " + std::to_string(n) + " depths for this layout, got " +
+                                std::to_string(depth_desired.size()));
 }
 
 Servo automatic_hybrid(int n_points, ServoOptions options, double switch_radius) {
@@ -216,38 +264,51 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
   const int n = layout_.n_points();
   const Eigen::Index m = layout_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;
+  // Exactly what validate() refuses (tests/cpp/test_fuzz.cpp checks that the two agree).
   const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
-                  out.error.size() == m && out.jacobian.rows() == m && uv.allFinite() && uv_desired.allFinite() &&
-                  finite_positive(depth) && (!uses_zd || finite_positive(depth_desired));
-  if (!ok) {
-    out.velocity.setZero();
-    out.saturated = false;
-    out.saturation_scale = 1.0;
-    return out.status = Status::invalid_input;
-  }
+                  out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
+                  detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
+                  (!uses_zd || detail::valid_depths(depth_desired));
+  if (!ok) return detail::refuse(out);
   return std::visit(
       [&](auto& w) noexcept {
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
-          return out.status = Status::invalid_input;  // unreachable: the constructor always builds a kernel
+          return detail::refuse(out);  // unreachable: the constructor always builds a kernel
         } else {
-        out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired);
-        // NaN = not computed (damped route with diagnostics off); solve() sets them otherwise.
-        out.sigma_min = out.sigma_max = std::numeric_limits<double>::quiet_NaN();
-        Twist x;
-        const bool singular = w.solve(options_, m, x, out.sigma_min, out.sigma_max);
-        out.error = w.e.head(m);
-        out.error_norm = out.error.norm();
-        out.jacobian = w.J.topRows(m);
-        const AdaptiveGain& ag = options_.adaptive_gain;
-        out.gain = ag.enabled() ? ag(out.error_norm) : options_.gain;
-        out.velocity = -out.gain * x;
-        out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);
-        out.saturated = out.saturation_scale < 1.0;
-        if (out.saturated) out.velocity *= out.saturation_scale;
-        return out.status = singular ? Status::singular : Status::ok;
+          out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired);
+          Twist x;
+          detail::Spectrum spectrum;
+          w.solve(options_, m, x, spectrum);
+          if (spectrum.known) out.set_singular_values(spectrum.smin, spectrum.smax);
+          else if (options_.diagnostics) out.set_gram(w.solver.N0);  // computed when read
+          else out.clear_singular_values();
+          out.error = w.e.head(m);
+          out.error_norm = out.error.norm();
+          out.jacobian = w.J.topRows(m);
+          const AdaptiveGain& ag = options_.adaptive_gain;
+          out.gain = ag.enabled() ? ag(out.error_norm) : options_.gain;
+          out.velocity = -out.gain * x;
+          out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);
+          out.saturated = out.saturation_scale < 1.0;
+          if (out.saturated) out.velocity *= out.saturation_scale;
+          return out.status = spectrum.singular ? Status::singular : Status::ok;
         }
       },
       kernel_->work);
+}
+
+Status detail::refuse(ServoOutput& out) noexcept {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  out.velocity.setZero();
+  out.error.setConstant(nan);
+  out.error_norm = nan;
+  out.jacobian.setConstant(nan);
+  out.clear_singular_values();
+  out.polar_fallbacks = 0;
+  out.gain = 0.0;
+  out.saturated = false;
+  out.saturation_scale = 1.0;
+  return out.status = Status::invalid_input;
 }
 
 }  // namespace ibvs

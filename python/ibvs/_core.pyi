@@ -195,6 +195,9 @@ class PlanarPose:
     def iterations(self) -> int: ...
 
 class ServoResult:
+    """Result of one update(): a snapshot owning its buffer; error, jacobian and velocity are
+    read-only views of it (no copy), never changed by later updates."""
+
     @property
     def status(self) -> Status: ...
     @property
@@ -241,6 +244,7 @@ class Servo:
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
         camera: CameraModel | None = None,
+        exact_diagnostics: bool = False,
     ) -> None: ...
     @staticmethod
     def automatic_hybrid(

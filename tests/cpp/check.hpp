@@ -21,6 +21,9 @@ inline void report(bool ok, const char* expr, const char* file, int line, const 
   if (ok) return;
   ++failures;
   std::fprintf(stderr, "%s:%d: CHECK failed: %s %s\n", file, line, expr, detail.c_str());
+#if defined(IBVS_LIBFUZZER)
+  __builtin_trap();  // libFuzzer: a failed check is a crash, saved with its input
+#endif
 }
 
 }  // namespace ibvs_test
@@ -43,6 +46,7 @@ inline void report(bool ok, const char* expr, const char* file, int line, const 
     ::ibvs_test::report(thrown_, "throws: " #stmt, __FILE__, __LINE__); \
   } while (0)
 
+#if !defined(IBVS_LIBFUZZER)  // libFuzzer brings its own main
 // Each test file defines run_tests(); this main parses [cases] [seed] and reports.
 void run_tests();
 
@@ -54,3 +58,4 @@ int main(int argc, char** argv) {
               ibvs_test::seed);
   return ibvs_test::failures == 0 && ibvs_test::checks > 0 ? 0 : 1;
 }
+#endif

@@ -266,13 +266,17 @@ void run_tests() {
                           Layout::stacked(3), Layout::polar(5), Layout::stacked(8), Layout::cartesian(16),
                           Layout::stacked(32), Layout::stacked(64), Layout::cylindrical(4), Layout::cylindrical(1),
                           cyl_mixed, Layout::cylindrical(128)}) {
-    for (double lambda : {0.0, 0.01}) {
+    // Every route of solve.hpp: normal (0, 0.01), robust (rank-deficient layouts and the half-turn
+    // mean below; 1e-9: a tiny damping that the normal route cannot carry on them), diagnostics
+    // estimated (and their exact fallback), exact, off.
+    for (double lambda : {0.0, 0.01, 1e-9}) {
       for (auto mode : {InteractionMatrix::current, InteractionMatrix::desired, InteractionMatrix::mean}) {
-        for (bool diag : {true, false}) {
+        for (int diag : {0, 1, 2}) {
           ServoOptions o;
           o.damping = lambda;
           o.jacobian = mode;
-          o.diagnostics = diag;
+          o.diagnostics = diag > 0;
+          o.exact_diagnostics = diag == 2;
           if (diag) {  // adaptive gain and saturation on the hot path as well
             o.adaptive_gain = {2.0, 0.5, 10.0};
             o.max_linear_speed = 0.01;
@@ -287,17 +291,27 @@ void run_tests() {
             in.uv_desired.col(i) << 0.12 * std::cos(a + 2.5), 0.12 * std::sin(a + 2.5);
           }
           in.uv.col(0).setZero();  // exercise the r -> 0 fallback as well
+          ServoInput half_turn = in;  // the mean Jacobian at the half-turn: rank-deficient
+          half_turn.uv = -half_turn.uv_desired;
+          half_turn.depth = half_turn.depth_desired;
           const long before = news.load();
           Eigen::internal::set_is_malloc_allowed(false);
           Status st = Status::ok;
-          for (int k = 0; k < 3; ++k) st = servo.update(in, out);
+          double sigma = 0.0;
+          for (int k = 0; k < 3; ++k) {
+            st = servo.update(in, out);
+            sigma += out.sigma_min() + out.sigma_max() + out.condition();  // computed on read: allocation-free too
+          }
+          const Status st_half = servo.update(half_turn, out);
+          sigma += out.sigma_min();
           in.depth(0) = -1.0;  // the invalid-input path must not allocate either
           const Status bad = servo.update(in, out);
           Eigen::internal::set_is_malloc_allowed(true);
           const long during = news.load() - before;
           ibvs_test::report(during == 0, "no operator new in update", __FILE__, __LINE__, L.describe());
-          CHECK(st != Status::invalid_input && bad == Status::invalid_input);
-          CHECK(out.velocity.allFinite());
+          CHECK(st != Status::invalid_input && st_half != Status::invalid_input && bad == Status::invalid_input);
+          CHECK(diag == 0 ? std::isnan(sigma) : !std::isnan(sigma));
+          CHECK(out.velocity.isZero(0.0) && std::isnan(out.sigma_min()));  // the refusal: zero twist, NaN diagnostics
         }
       }
     }

@@ -54,7 +54,7 @@ void law_matches_pinv() {
           }
           const Status st = servo.update(in, out);
           ibvs_test::report(st == Status::ok || (st == Status::singular && n < 3), "status", __FILE__,
-                            __LINE__, L.describe() + " " + std::to_string(out.sigma_min) + " " + std::to_string(out.sigma_max));
+                            __LINE__, L.describe() + " " + std::to_string(out.sigma_min()) + " " + std::to_string(out.sigma_max()));
           MatrixX6 J = jacobian(L, in.uv, in.depth);
           if (mode == InteractionMatrix::desired) J = jacobian(L, in.uv_desired, in.depth_desired);
           if (mode == InteractionMatrix::mean) J = 0.5 * (J + jacobian(L, in.uv_desired, in.depth_desired));
@@ -66,8 +66,8 @@ void law_matches_pinv() {
           ibvs_test::report((out.velocity - v).norm() < 1e-8 * std::max(1.0, v.norm()), "velocity = -gain J+ e",
                             __FILE__, __LINE__, L.describe() + " lambda=" + std::to_string(lambda));
           const Eigen::VectorXd s = singular_values(J);
-          if (L.rows() >= 6) CHECK_NEAR(out.sigma_min, s(5), 1e-7 * s(0));
-          CHECK_NEAR(out.sigma_max, s(0), 1e-7 * s(0));
+          if (L.rows() >= 6) CHECK_NEAR(out.sigma_min(), s(5), 1e-7 * s(0));
+          CHECK_NEAR(out.sigma_max(), s(0), 1e-7 * s(0));
         }
       }
     }
@@ -89,7 +89,7 @@ void singular_mean() {
   in.depth_desired.setConstant(2.0);
   CHECK(servo.update(in, out) == Status::singular);
   CHECK(out.velocity.allFinite());
-  CHECK(out.sigma_min < 1e-12);
+  CHECK(out.sigma_min() < 1e-12);
   const Twist v = -o.gain * damped_pinv(out.jacobian, 0.0) * out.error;
   CHECK((out.velocity - v).norm() < 1e-9);
   // Fewer than 3 points is rank-deficient too: still finite.
@@ -101,9 +101,8 @@ void singular_mean() {
   CHECK(o2.velocity.allFinite() && o2.velocity.norm() > 0);
 }
 
-// Diagnostics off on the damped route: the same twist as with them on, but
-// sigma_min / sigma_max are NaN (not computed) and the singular case is not
-// flagged; the undamped route always computes them.
+// Diagnostics off: the same twist as with them on, but sigma_min / sigma_max are
+// NaN (not computed) and the singular case is not flagged, on every route.
 void diagnostics_off() {
   const Layout L = Layout::cartesian(4);
   ServoInput in(L);
@@ -120,13 +119,17 @@ void diagnostics_off() {
   ServoOutput o_on(L), o_off(L);
   CHECK(s_on.update(in, o_on) == Status::singular);
   CHECK(s_off.update(in, o_off) == Status::ok);
-  CHECK(std::isnan(o_off.sigma_min) && std::isnan(o_off.sigma_max));
-  CHECK(std::isfinite(o_on.sigma_min) && o_on.sigma_max > 0);
+  CHECK(std::isnan(o_off.sigma_min()) && std::isnan(o_off.sigma_max()));
+  CHECK(std::isfinite(o_on.sigma_min()) && o_on.sigma_max() > 0);
   CHECK((o_on.velocity - o_off.velocity).norm() <= 1e-15 * (1 + o_on.velocity.norm()));
-  off.damping = 0.0;
-  Servo s_svd(L, off);
-  CHECK(s_svd.update(in, o_off) == Status::singular);
-  CHECK(std::isfinite(o_off.sigma_min) && o_off.sigma_min < 1e-12);
+  // Undamped (the robust route here: J is rank-deficient): the same.
+  off.damping = on.damping = 0.0;
+  Servo s_svd_off(L, off), s_svd_on(L, on);
+  CHECK(s_svd_off.update(in, o_off) == Status::ok);
+  CHECK(std::isnan(o_off.sigma_min()) && std::isnan(o_off.sigma_max()));
+  CHECK(s_svd_on.update(in, o_on) == Status::singular);
+  CHECK(std::isfinite(o_on.sigma_min()) && o_on.sigma_min() < 1e-12);
+  CHECK(o_on.velocity == o_off.velocity);
 }
 
 // A point on the optical axis (r = 0) in a polar layout: finite, counted,

@@ -46,7 +46,7 @@ def test_python_bench_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert "median" in out and "p99" in out and "numpy/ibvs" in out
     for kind in bench.LAYOUTS:
         assert f"{kind}(4)" in out
-    assert "numpy vectorised" in out and "ibvs Servo.update damped" in out
+    assert "numpy vectorised" in out and "ibvs Servo.update damped" in out and "/tuned" in out
 
 
 def test_python_bench_accepts_forwarded_separator(capsys: pytest.CaptureFixture[str]) -> None:
@@ -67,6 +67,8 @@ def test_python_bench_json(capsys: pytest.CaptureFixture[str]) -> None:
         assert c["calls_per_s"] > 0
         if c["name"] == "ibvs Servo.update damped":
             assert c["twist_difference"] <= 1e-9 and c["numpy_ratio"] > 0
+        if c["name"].startswith("ibvs Servo.update default"):
+            assert c["default_over_tuned"] > 0
 
 
 def test_agreement_check_raises_on_mismatch(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -95,8 +97,9 @@ def test_cpp_bench_table(cpp_bench: str) -> None:
                           "--paced", "1000", "--duration", "0.05", "--episodes", "2",
                           "--sections", "components,growth,paced,episode"],
                          check=True, capture_output=True, text=True, timeout=300).stdout
-    for what in ("median", "p99", "steps/s", "Servo::update damped", "Eigen floor", "jacobian", "solve damped",
-                 "stacked(4) 16x6", "cartesian(4) 8x6", "misses", "episodes/s"):
+    for what in ("median", "p99", "steps/s", "Servo::update default", "Servo::update tuned", "Eigen floor", "jacobian",
+                 "solve: normal route", "solve: robust route", "robust", "ViSP stand-in", "stacked(4) 16x6",
+                 "cartesian(4) 8x6", "misses", "episodes/s"):
         assert what in out, what
 
 
@@ -113,6 +116,7 @@ def test_cpp_bench_json(cpp_bench: str) -> None:
         assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
         if c["name"].startswith("Servo::update"):
             assert c["allocs_per_call"] == 0, c  # the real-time path allocates nothing
+            assert 0 <= c["robust_frames"] <= 64, c  # frames solved by the QR + SVD route, counted
     assert [p["rate_hz"] for p in res["paced"]] == [60, 1000]
     for p in res["paced"]:
         assert p["steps"] >= 1 and p["misses"] >= 0 and p["lateness_max_us"] >= p["lateness_p99_us"]

@@ -275,3 +275,44 @@ def test_cmake_dir_holds_package_config():
     from pathlib import Path
 
     assert (Path(ibvs.cmake_dir()) / "ibvsConfig.cmake").is_file()
+
+
+def test_results_are_snapshots_without_copies():
+    """Servo.update returns its output buffer itself (no copy): error, jacobian and velocity are
+    read-only views of it; a later update writes into another buffer, so a kept result never changes."""
+    servo = ibvs.Servo(LAYOUTS["stacked"], gain=1.0)
+    uvd = np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]])
+    first = servo.update(uvd * 1.3, 1.0, uvd)
+    e1, J1, v1 = first.error.copy(), first.jacobian.copy(), first.velocity.copy()
+    view = first.error
+    assert not view.flags.writeable and not view.flags.owndata
+    assert np.shares_memory(view, first.error)  # a view of the result's buffer, read after read
+    with pytest.raises(ValueError):
+        view[0] = 1.0
+    kept = [servo.update(uvd * (1.0 + 0.1 * k), 1.0, uvd) for k in range(5)]  # results kept: fresh buffers
+    assert np.array_equal(first.error, e1) and np.array_equal(first.jacobian, J1) and np.array_equal(first.velocity, v1)
+    assert len({r.error.__array_interface__["data"][0] for r in kept}) == 5
+    del first, kept, view
+    # In a loop that drops its results the servo reuses its buffers: no allocation per call.
+    addresses = set()
+    for k in range(20):
+        res = servo.update(uvd * (1.0 + 0.01 * k), 1.0, uvd)
+        addresses.add(res.error.__array_interface__["data"][0])
+    assert len(addresses) <= 3
+    del res
+    # The diagnostics are computed when read, and equal the exact singular values.
+    r = servo.update(uvd * 1.3, 1.0, uvd)
+    s = np.linalg.svd(r.jacobian, compute_uv=False)
+    assert r.sigma_max == pytest.approx(s[0], rel=1e-13) and r.sigma_min == pytest.approx(s[-1], rel=1e-9)
+
+
+def test_refused_update_leaves_no_stale_values_in_cpp_output():
+    """A refusal raises in Python; the servo stays usable and the next result is the new frame's."""
+    servo = ibvs.Servo(LAYOUTS["cartesian"], gain=1.0)
+    uvd = np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]])
+    with pytest.raises(ValueError, match="depth"):
+        servo.update(uvd, 1e-300, uvd)
+    with pytest.raises(ValueError, match="pixels"):
+        servo.update(uvd * 600 + 320, 1.0, uvd)
+    res = servo.update(uvd * 1.1, 1.0, uvd)
+    assert res.status == ibvs.Status.ok and np.all(np.isfinite(res.velocity)) and res.sigma_min > 0

@@ -16,6 +16,8 @@
 // polar_jacobian() below is -(eq. 7), and the finite-difference tests prove it.
 #pragma once
 
+#include "ibvs/limits.hpp"
+
 #include <Eigen/Core>
 
 #include <cmath>
@@ -48,10 +50,16 @@ inline double wrap_angle(double a) noexcept {
   return w;
 }
 
-/// Polar features (r, theta) of a point (u, v); theta = atan2(v, u), so the
-/// principal point itself gives (0, 0) rather than NaN.
+/// theta = atan2(v, u) in (-pi, pi]: atan2 gives -pi for v = -0.0, u < 0, mapped to +pi.
+inline double polar_angle(double u, double v) noexcept {
+  const double t = std::atan2(v, u);
+  return t <= -pi ? pi : t;
+}
+
+/// Polar features (r, theta) of a point (u, v); theta = polar_angle(u, v), so
+/// the principal point itself gives (0, 0) rather than NaN.
 inline Eigen::Vector2d polar_features(double u, double v) noexcept {
-  return {std::sqrt(u * u + v * v), std::atan2(v, u)};
+  return {std::sqrt(u * u + v * v), polar_angle(u, v)};
 }
 
 /// Eq. (3): Jacobian of (u, v) for a point at depth z > 0.
@@ -87,7 +95,7 @@ inline Matrix26 polar_jacobian(double u, double v, double z) noexcept {
 /// as [6] in the paper), theta = atan2(v, u) in (-pi, pi]: 0 at the principal point.
 inline Eigen::Vector2d cylindrical_features(double u, double v) noexcept {
   const double r = std::sqrt(u * u + v * v);
-  return {r, r * std::atan2(v, u)};
+  return {r, r * polar_angle(u, v)};
 }
 
 /// Jacobian of (r, r alpha), alpha = theta - theta0 the point's angle from a
@@ -112,9 +120,10 @@ inline Matrix26 cylindrical_jacobian(double r, double c, double s, double alpha,
 }
 
 /// True when a polar block at squared radius r2 must use its Cartesian rows:
-/// below the policy radius, and always at the principal point itself.
+/// below the policy radius, and always below polar_radius_floor (the
+/// principal point itself included), where the 1/r rows would overflow.
 inline bool polar_falls_back(double r2, double polar_min_radius) noexcept {
-  return r2 < polar_min_radius * polar_min_radius || r2 == 0.0;
+  return r2 < polar_min_radius * polar_min_radius || r2 < polar_radius_floor * polar_radius_floor;
 }
 
 }  // namespace ibvs

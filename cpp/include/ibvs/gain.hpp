@@ -34,7 +34,8 @@ struct AdaptiveGain {
   double operator()(double x) const noexcept {
     const double a = at_zero - at_infinity;
     if (a == 0.0 || slope_at_zero == 0.0) return at_zero;
-    return a * std::exp(-(slope_at_zero / a) * x) + at_infinity;
+    // -(g0' x) / a rather than -(g0' / a) x: no inf * 0 at x = 0 when a is tiny.
+    return a * std::exp(-(slope_at_zero * x) / a) + at_infinity;
   }
 };
 
@@ -45,7 +46,9 @@ struct AdaptiveGain {
 /// component separately would not.
 inline double saturation_scale(const Twist& v, double max_linear, double max_angular) noexcept {
   double s = 1.0;
-  const double t = v.head<3>().norm(), w = v.tail<3>().norm();
+  double t = v.head<3>().norm(), w = v.tail<3>().norm();
+  if (std::isinf(t)) t = v.head<3>().stableNorm();  // squares overflowed (huge gain): rescaled norm
+  if (std::isinf(w)) w = v.tail<3>().stableNorm();
   if (t > max_linear) s = max_linear / t;
   if (w > max_angular) s = std::min(s, max_angular / w);
   return s;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "ibvs/features.hpp"
+#include "ibvs/limits.hpp"
 
 #include <Eigen/Core>
 
@@ -24,10 +25,17 @@ struct Block {
 /// An ordered list of blocks; block k fills rows 2k and 2k+1.
 class Layout {
  public:
-  /// Every block of point `point` is distinct; indices in [0, n_points).
-  /// n_points < 0 means "largest index + 1". Throws std::invalid_argument.
+  /// Every block of point `point` is distinct; indices in [0, n_points),
+  /// n_points <= max_points. n_points < 0 means "largest index + 1". Linear
+  /// time. Throws std::invalid_argument.
   explicit Layout(std::vector<Block> blocks, int n_points = -1);
+  Layout(const Layout&);
+  Layout(Layout&&) noexcept;
+  Layout& operator=(const Layout&);
+  Layout& operator=(Layout&&) noexcept;
+  ~Layout();
 
+  // n in [1, max_points]:
   static Layout cartesian(int n);  ///< (u_i, v_i) for i = 0..n-1: 2N x 6
   static Layout polar(int n);      ///< (r_i, theta_i): 2N x 6, IBVS-P
   static Layout stacked(int n);    ///< (u_i, v_i, r_i, theta_i) per point: 4N x 6
@@ -75,6 +83,14 @@ void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>
                    Eigen::Ref<Eigen::VectorXd> e) noexcept;
 
 // ---- allocating versions that validate first (throw std::invalid_argument) ----
+// Points: finite, |u|, |v| <= max_normalized_coordinate; depths in [min_depth,
+// max_depth]; features: values features() can give for such points.
+
+/// Throw std::invalid_argument naming `name` unless every point is finite and
+/// within max_normalized_coordinate (the message points to CameraModel::normalize
+/// for pixels) / unless there are n depths, each in [min_depth, max_depth].
+void validate_points(const Eigen::Ref<const Points>& uv, const char* name);
+void validate_depths(const Eigen::Ref<const Eigen::VectorXd>& depth, const char* name, Eigen::Index n);
 
 Eigen::VectorXd features(const Layout& layout, const Eigen::Ref<const Points>& uv);
 MatrixX6 jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,

@@ -26,6 +26,12 @@ class PlanarPose {
   /// points: 3 x N in the target frame, all with z = 0, N >= 4, not all on one
   /// line; iterations >= 0 Gauss-Newton steps (throws std::invalid_argument).
   explicit PlanarPose(const Eigen::Matrix3Xd& points, int iterations = 5);
+  // Special members defined in the library (which allocates the points), for consumers built with other flags.
+  PlanarPose(const PlanarPose&);
+  PlanarPose(PlanarPose&&) noexcept;
+  PlanarPose& operator=(const PlanarPose&);
+  PlanarPose& operator=(PlanarPose&&) noexcept;
+  ~PlanarPose();
 
   int n_points() const noexcept { return static_cast<int>(points_.cols()); }
   const Eigen::Matrix3Xd& points() const noexcept { return points_; }

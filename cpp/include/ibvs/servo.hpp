@@ -11,6 +11,7 @@
 #include "ibvs/gain.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/pixel_front_end.hpp"
+#include "ibvs/limits.hpp"
 
 #include <Eigen/Core>
 
@@ -30,20 +31,26 @@ enum class InteractionMatrix : std::uint8_t {
 /// Outcome of one update().
 enum class Status : std::int8_t {
   ok = 0,
-  singular = 1,        ///< J is numerically rank-deficient; the twist is still the
-                       ///< finite minimum-norm (or damped) solution
-  invalid_input = -1,  ///< non-finite value, depth <= 0 or wrong size: twist set to 0
+  singular = 1,        ///< sigma_min <= singular_tolerance(M) sigma_max (J rank-deficient to what
+                       ///< J^T J resolves); the twist is still the finite minimum-norm (or damped)
+                       ///< solution. Reported only with diagnostics on.
+  invalid_input = -1,  ///< an input validate() refuses (non-finite, outside limits.hpp, wrong size):
+                       ///< twist 0, error, Jacobian and diagnostics NaN
 };
 
 struct ServoOptions {
-  double gain = 0.5;                                    ///< gamma > 0, 1/s
-  double damping = 0.0;                                 ///< lambda >= 0 (same units as J's singular values)
+  double gain = 0.5;                                    ///< gamma in (0, max_gain], 1/s
+  double damping = 0.0;                                 ///< lambda in [0, max_matrix_entry] (units of J's singular values)
   InteractionMatrix jacobian = InteractionMatrix::current;
-  double polar_min_radius = default_polar_min_radius;  ///< r -> 0 policy, >= 0
-  /// Compute sigma_min / sigma_max every step. Off, the damped route skips the
-  /// eigenvalues of J^T J (about 1.5 us at N = 4): sigma_min / sigma_max are then
-  /// NaN and Status::singular is never reported. The undamped route always has them.
+  double polar_min_radius = default_polar_min_radius;  ///< r -> 0 policy, >= 0 (polar_radius_floor applies below it)
+  /// Diagnostics: Status::singular every step, decided exactly and nearly free
+  /// by the full-rank test of the solve (cpp/src/solve.hpp), and
+  /// ServoOutput::sigma_min() / sigma_max() / condition(), computed when read.
+  /// Off: they are NaN and Status::singular is never reported.
   bool diagnostics = true;
+  /// With diagnostics: compute sigma_min / sigma_max every step, exactly (QR of
+  /// J and the SVD of its R factor, ~4 us: sigma_min to eps sigma_max).
+  bool exact_diagnostics = false;
   /// gain(|e|) instead of the constant `gain` when enabled (at_zero > 0); off by default.
   AdaptiveGain adaptive_gain{};
   /// Twist limits, > 0: the whole twist is scaled by one factor so that |T| <= max_linear_speed
@@ -52,25 +59,38 @@ struct ServoOptions {
   double max_angular_speed = no_limit;
 };
 
-/// Per-frame input, sized once for a layout (N points).
+/// Per-frame input, sized once for a layout (N points). The library allocates
+/// its buffers and frees them (special members defined in the library, so a
+/// consumer built with other flags, sanitizers included, never frees them with
+/// another allocator): fill them, do not resize them.
 struct ServoInput {
   explicit ServoInput(const Layout& layout);
-  Points uv;                     ///< current points, 2 x N, normalised coordinates
-  Eigen::VectorXd depth;         ///< current depths z > 0, metres, N
+  ServoInput(const ServoInput&);
+  ServoInput(ServoInput&&) noexcept;
+  ServoInput& operator=(const ServoInput&);
+  ServoInput& operator=(ServoInput&&) noexcept;
+  ~ServoInput();
+  Points uv;                     ///< current points, 2 x N, normalised coordinates, |u|, |v| <= max_normalized_coordinate
+  Eigen::VectorXd depth;         ///< current depths, metres, N, in [min_depth, max_depth]
   Points uv_desired;             ///< desired points, 2 x N
-  Eigen::VectorXd depth_desired; ///< desired depths, N (used by desired / mean)
+  Eigen::VectorXd depth_desired; ///< desired depths, N (values used by desired / mean)
 };
 
-/// Per-frame output, sized once for a layout (M rows).
+/// Per-frame output, sized once for a layout (M rows); buffers owned by the
+/// library as ServoInput's.
 struct ServoOutput {
   explicit ServoOutput(const Layout& layout);
+  ServoOutput(const ServoOutput&);
+  ServoOutput(ServoOutput&&) noexcept;
+  ServoOutput& operator=(const ServoOutput&);
+  ServoOutput& operator=(ServoOutput&&) noexcept;
+  ~ServoOutput();
   Status status = Status::ok;
   Twist velocity = Twist::Zero();  ///< camera twist (Tx, Ty, Tz, wx, wy, wz), m/s and rad/s
   Eigen::VectorXd error;           ///< f (-) f*, M
   double error_norm = 0.0;         ///< |error|_2
   MatrixX6 jacobian;               ///< the interaction matrix used, M x 6
-  double sigma_min = 0.0;          ///< smallest singular value of jacobian (of the 6 columns); NaN if not computed
-  double sigma_max = 0.0;          ///< largest singular value of jacobian; NaN if not computed
+
   int polar_fallbacks = 0;         ///< polar blocks computed as Cartesian (r < polar_min_radius)
   double gain = 0.0;               ///< the gain applied this step (constant or adaptive_gain(error_norm))
   bool saturated = false;          ///< the twist was scaled down to the speed limits
@@ -78,6 +98,31 @@ struct ServoOutput {
   /// update_pixels(): the largest distance, in pixels, between a measured point and its
   /// desired point (a tolerance in pixels compares with this); NaN after update().
   double pixel_error = std::numeric_limits<double>::quiet_NaN();
+
+  /// Smallest and largest singular value of `jacobian` (of its 6 columns), and
+  /// sigma_max / sigma_min (inf when sigma_min = 0). NaN with diagnostics off
+  /// and after a refused update. Known after update() where the step computed
+  /// them anyway (the robust route, exact_diagnostics, PartitionedServo);
+  /// otherwise computed on the first call from the J^T J the update kept (its
+  /// exact eigenvalues, ~0.5 us: sigma_max to rounding, sigma_min to relative
+  /// ~eps cond(J)^2) and cached until the next update. Noexcept, allocation-free;
+  /// the first call writes the cache, so do not make it from two threads at once.
+  double sigma_min() const noexcept;
+  double sigma_max() const noexcept;
+  double condition() const noexcept;
+
+  // For the update functions of the library: record the singular values, or
+  // J^T J to compute them from on demand, or neither (NaN).
+  void set_singular_values(double smin, double smax) noexcept;
+  void set_gram(const Eigen::Matrix<double, 6, 6>& gram) noexcept;
+  void clear_singular_values() noexcept;
+
+ private:
+  void resolve() const noexcept;
+  Eigen::Matrix<double, 6, 6> gram_ = Eigen::Matrix<double, 6, 6>::Zero();
+  mutable double sigma_min_ = std::numeric_limits<double>::quiet_NaN();
+  mutable double sigma_max_ = std::numeric_limits<double>::quiet_NaN();
+  mutable bool pending_ = false;  ///< gram_ holds a J^T J whose eigenvalues are not computed yet
 };
 
 /// Largest layout (rows) whose update() is guaranteed allocation-free on every
@@ -91,11 +136,14 @@ inline constexpr int max_realtime_rows = 256;
 /// when enabled, and s = saturation_scale(...) <= 1 the uniform factor that
 /// brings the twist within max_linear_speed / max_angular_speed (1 by default).
 ///
-/// Pseudoinverse route: damping > 0 solves the 6x6 damped normal equations
-/// (J^T J + lambda^2 I) x = J^T e by Cholesky (fast, exact DLS); damping = 0
-/// uses a QR of J then an SVD of its 6x6 R factor (robust Moore-Penrose, also
-/// for rank-deficient J). Diagnostics on the damped route come from the
-/// eigenvalues of J^T J, so sigma_min there is resolved to ~1e-8 * sigma_max.
+/// Pseudoinverse: velocity = -gain * damped_pinv(J, damping) * e (pinv.hpp) to
+/// ~1e-10 relative, for every damping >= 0. Two routes (cpp/src/solve.hpp):
+/// the normal equations (J^T J + lambda^2 I) x = J^T e by Cholesky plus one
+/// refinement step (~0.3 us at 16 rows), taken when a cheap bound on their
+/// condition number, tr(N) tr(N^-1), is below 1e10 (damping 0) or 1e7
+/// (damping > 0); otherwise a QR of J and an SVD of its 6x6 R factor (~5 us;
+/// rank-deficient J: fewer than 3 points, the mean Jacobian at the half-turn,
+/// a tiny damping on a rank-deficient J).
 ///
 /// r -> 0 policy: a polar block whose current or desired radius is below
 /// polar_min_radius uses its Cartesian rows and Cartesian error for that step

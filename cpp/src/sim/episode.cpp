@@ -73,6 +73,21 @@ const Layout& layout_of(const AnyServo& servo) noexcept {
 
 }  // namespace
 
+// Special members out of line: the buffers are allocated and freed by the library's code only.
+History::History(const History&) = default;
+History::History(History&&) noexcept = default;
+History& History::operator=(const History&) = default;
+History& History::operator=(History&&) noexcept = default;
+History::~History() = default;
+EpisodeResult::EpisodeResult(const EpisodeResult&) = default;
+EpisodeResult::EpisodeResult(EpisodeResult&&) noexcept = default;
+EpisodeResult& EpisodeResult::operator=(const EpisodeResult&) = default;
+EpisodeResult& EpisodeResult::operator=(EpisodeResult&&) noexcept = default;
+EpisodeResult::~EpisodeResult() = default;
+Episode::Episode(Episode&&) noexcept = default;
+Episode& Episode::operator=(Episode&&) noexcept = default;
+Episode::~Episode() = default;
+
 Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptions options)
     : servo_(std::move(servo)),
       out_(layout_of(servo_)),
@@ -340,7 +355,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     if (options_.boundary_margin > 0.0 && options_.boundary_gain > 0.0) out_.velocity(2) += boundary_tz(seen);
     h.error.row(k) = out_.error.transpose();
     h.error_norm(k) = out_.error_norm;
-    h.sigma_min(k) = out_.sigma_min;
+    h.sigma_min(k) = out_.sigma_min();
     h.twist.row(k) = out_.velocity.transpose();
     if (k == 0) error0 = out_.error_norm;
     if (out_.error_norm < options_.tolerance) {

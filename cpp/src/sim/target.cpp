@@ -18,6 +18,15 @@ Eigen::Matrix3Xd square_points(double h) {
 }
 }  // namespace
 
+// Special members out of line: the points are allocated and freed by the library's code only.
+Target::Target(const Target&) = default;
+Target::Target(Target&&) noexcept = default;
+Target& Target::operator=(const Target&) = default;
+Target& Target::operator=(Target&&) noexcept = default;
+Target::~Target() = default;
+
+Target::Target(Eigen::Matrix3Xd points_, const Pose& pose_) : points(std::move(points_)), pose(pose_) {}
+
 Target Target::paper() {
   Target t;
   t.points = square_points(0.25);

@@ -164,6 +164,13 @@ using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::R
 /// on the damped route), for a PartitionedServo that of the four (Tx, Ty, wx, wy)
 /// columns of its Cartesian Jacobian.
 struct History {
+  History() = default;
+  // Special members defined in the library (which allocates the arrays), for consumers built with other flags.
+  History(const History&);
+  History(History&&) noexcept;
+  History& operator=(const History&);
+  History& operator=(History&&) noexcept;
+  ~History();
   int frames = 0;
   Eigen::VectorXd time;    ///< s
   RowMatrix pose;          ///< K x 16: world <- camera, 4x4 row-major
@@ -180,6 +187,12 @@ struct History {
 };
 
 struct EpisodeResult {
+  EpisodeResult() = default;
+  EpisodeResult(const EpisodeResult&);
+  EpisodeResult(EpisodeResult&&) noexcept;
+  EpisodeResult& operator=(const EpisodeResult&);
+  EpisodeResult& operator=(EpisodeResult&&) noexcept;
+  ~EpisodeResult();
   EpisodeStatus status;
   Metrics metrics;
   History history;
@@ -201,6 +214,10 @@ class Episode {
   Episode(AnyServo servo, CameraModel camera, Target target, std::shared_ptr<Robot> robot, EpisodeOptions options = {});
   /// Camera on the gantry (a copy of it).
   Episode(AnyServo servo, CameraModel camera, Target target, const Gantry& gantry, EpisodeOptions options = {});
+  // Special members defined in the library (which allocates the workspaces), for consumers built with other flags.
+  Episode(Episode&&) noexcept;
+  Episode& operator=(Episode&&) noexcept;
+  ~Episode();
 
   /// Free-flying: start and goal are world <- camera poses.
   const EpisodeResult& run(const Pose& start, const Pose& goal);

@@ -11,6 +11,14 @@
 namespace ibvs::sim {
 
 struct Target {
+  Target() = default;
+  Target(Eigen::Matrix3Xd points, const Pose& pose = Pose::Identity());  ///< points 3 x N (target frame), world <- target
+  // Special members defined in the library (which allocates the points), for consumers built with other flags.
+  Target(const Target&);
+  Target(Target&&) noexcept;
+  Target& operator=(const Target&);
+  Target& operator=(Target&&) noexcept;
+  ~Target();
   Eigen::Matrix3Xd points;         ///< 3 x N, target frame, metres
   Pose pose = Pose::Identity();    ///< world <- target
 

@@ -1,0 +1,52 @@
+// What a consumer does with the library's value types, built with its own flags
+// (CI: AddressSanitizer + UndefinedBehaviorSanitizer against a library built
+// without them): construct, copy, move, assign and destroy every type that
+// owns library-allocated buffers, and run a step. Eigen allocates differently
+// under ASan (no glibc-aligned malloc), so a buffer allocated by the library and
+// freed by an inline destructor here would crash; the library defines those
+// special members itself.
+#include <ibvs/ibvs.hpp>
+#include <ibvs/sim/sim.hpp>
+
+#include <cstdio>
+#include <utility>
+#include <vector>
+
+int main() {
+  ibvs::Layout layout = ibvs::Layout::stacked(4);
+  ibvs::Layout copy = layout;
+  ibvs::Layout moved = std::move(copy);
+  copy = moved;
+  layout = std::move(moved);
+  ibvs::Servo servo(layout, {/*gain*/ 0.5});
+  ibvs::ServoInput in(layout);
+  in.uv_desired << 0.1, -0.1, -0.1, 0.1, 0.1, 0.1, -0.1, -0.1;
+  in.uv << 0.16, -0.05, -0.16, 0.05, 0.05, 0.16, -0.05, -0.16;
+  in.depth.setConstant(0.6);
+  ibvs::ServoInput in2 = in;
+  in2 = in;
+  ibvs::ServoInput in3 = std::move(in2);
+  std::vector<ibvs::ServoOutput> outs;
+  for (int k = 0; k < 4; ++k) outs.emplace_back(layout);  // reallocation moves them
+  const ibvs::Status status = servo.update(in3, outs[0]);
+  ibvs::ServoOutput out = outs[0];
+  outs[1] = out;
+  outs[2] = std::move(out);
+  ibvs::Servo other = std::move(servo);
+  other.update(in, outs[3]);
+  // The simulator's value types too: a target, an episode and its result (history arrays).
+  ibvs::sim::Target target = ibvs::sim::Target::paper();
+  ibvs::sim::Target target2 = target;
+  ibvs::sim::EpisodeOptions eo;
+  eo.duration = 1.0;
+  ibvs::sim::Episode episode(ibvs::Servo(ibvs::Layout::cartesian(4), {1.0}), ibvs::sim::Camera::normalized(0.3),
+                             std::move(target2), eo);
+  ibvs::Pose start = ibvs::Pose::Identity();
+  start(0, 3) = 0.05;
+  ibvs::sim::EpisodeResult result = episode.run(start, ibvs::Pose::Identity());
+  ibvs::sim::EpisodeResult result2 = std::move(result);
+  ibvs::sim::Episode episode2 = std::move(episode);
+  std::printf("status %d sigma_min %.6g condition %.6g velocity %.6g; episode: %d frames\n", static_cast<int>(status),
+              outs[2].sigma_min(), outs[2].condition(), outs[3].velocity.norm(), result2.history.frames);
+  return status == ibvs::Status::ok && outs[3].velocity == outs[2].velocity && result2.history.frames > 0 ? 0 : 1;
+}

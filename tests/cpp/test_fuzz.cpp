@@ -1,0 +1,236 @@
+// Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
+// damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
+// options and inputs (every double bit pattern possible: NaN, inf, subnormals,
+// 1e300), and the contract is checked:
+//  * every function either throws std::invalid_argument or answers with finite numbers;
+//  * Servo::validate throws exactly when Servo::update returns invalid_input, and
+//    then update leaves a zero twist and NaN diagnostics (nothing of an earlier frame);
+//  * an accepted update gives a finite twist, error and Jacobian, and finite
+//    diagnostics (NaN only with diagnostics off).
+// LLVMFuzzerTestOneInput is libFuzzer's entry point (clang -fsanitize=fuzzer;
+// tests/CMakeLists.txt builds fuzz_ibvs with it when the compiler can). Here it
+// is also a ctest: a seeded random driver feeds it [cases] inputs (default 500,
+// x 20 below) of random bytes, and CI runs it under ASan + UBSan as well.
+#include "check.hpp"
+
+#include "ibvs/ibvs.hpp"
+#include "ibvs/partitioned.hpp"
+
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+using namespace ibvs;
+
+namespace {
+
+/// Reads typed values from the bytes (zeros once they run out).
+struct Bytes {
+  const std::uint8_t* p;
+  std::size_t n;
+  std::uint8_t byte() noexcept { return n ? (--n, *p++) : 0; }
+  int small(int lo, int hi) noexcept { return lo + byte() % (hi - lo + 1); }
+  /// A double: half the time any bit pattern, else an "interesting" value
+  /// (signed zero, powers of ten from 1e-320 to 1e300, specials, values near the limits).
+  double real() noexcept {
+    const std::uint8_t mode = byte();
+    if (mode < 96) {
+      std::uint64_t bits = 0;
+      for (int i = 0; i < 8; ++i) bits = bits << 8 | byte();
+      double x;
+      std::memcpy(&x, &bits, sizeof x);
+      return x;
+    }
+    const double sign = mode & 1 ? -1.0 : 1.0;
+    switch (mode % 8) {
+      case 0: return sign * 0.0;
+      case 1: return std::numeric_limits<double>::quiet_NaN();
+      case 2: return sign * std::numeric_limits<double>::infinity();
+      case 3: return sign * std::numeric_limits<double>::denorm_min() * (1 + byte());
+      default: {
+        const int e = static_cast<int>(byte()) * 620 / 255 - 320;  // 1e-320 .. 1e300
+        const double mant = 1.0 + byte() / 64.0;
+        return sign * mant * std::pow(10.0, e);
+      }
+    }
+  }
+  /// Mostly plausible values (normalised coordinates, depths) with occasional hostile ones.
+  double coordinate() noexcept { return byte() < 200 ? (byte() - 127.5) / 300.0 : real(); }
+  double depth() noexcept { return byte() < 200 ? 0.1 + byte() / 25.0 : real(); }
+};
+
+bool finite(double x) { return std::isfinite(x); }
+
+void check_output(const ServoOutput& out, Status st, bool diagnostics, const char* what) {
+  if (st == Status::invalid_input) {
+    ibvs_test::report(out.velocity.isZero(0.0) && std::isnan(out.sigma_min()) && std::isnan(out.sigma_max()),
+                      "refusal: zero twist, NaN diagnostics", __FILE__, __LINE__, what);
+    return;
+  }
+  ibvs_test::report(out.velocity.allFinite() && out.error.allFinite() && out.jacobian.allFinite() &&
+                        finite(out.error_norm) && finite(out.gain) && finite(out.saturation_scale),
+                    "accepted: finite outputs", __FILE__, __LINE__, what);
+  ibvs_test::report(diagnostics ? finite(out.sigma_min()) && finite(out.sigma_max()) && out.sigma_min() >= 0 &&
+                                      out.sigma_min() <= out.sigma_max() * (1 + 1e-9)
+                                : std::isnan(out.sigma_min()) && std::isnan(out.sigma_max()),
+                    "diagnostics finite (NaN when off)", __FILE__, __LINE__, what);
+}
+
+void fuzz_servo(Bytes& b) {
+  // Layout: a uniform one or random blocks (indices and representations may be invalid).
+  std::optional<Layout> layout;
+  try {
+    const int kind = b.small(0, 4);
+    const int n = b.small(-1, 9);
+    if (kind == 0) layout = Layout::cartesian(n);
+    else if (kind == 1) layout = Layout::polar(n);
+    else if (kind == 2) layout = Layout::stacked(n);
+    else if (kind == 3) layout = Layout::cylindrical(n);
+    else {
+      std::vector<Block> blocks(static_cast<std::size_t>(b.small(0, 8)));
+      for (Block& k : blocks) {
+        const std::uint8_t x = b.byte();
+        k.point = x < 250 ? x % 8 : x == 250 ? -1 : x == 251 ? std::numeric_limits<int>::max() : max_points;
+        k.representation = static_cast<Representation>(b.small(0, 3));
+      }
+      layout.emplace(std::move(blocks), b.byte() < 200 ? -1 : b.small(0, 10));
+    }
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  CHECK(!layout->describe().empty() && *layout == *layout && layout->n_points() >= 1 && layout->rows() >= 2);
+
+  ServoOptions o;
+  o.gain = b.byte() < 200 ? 0.1 + b.byte() / 50.0 : b.real();
+  o.damping = b.byte() < 128 ? 0.0 : b.byte() < 200 ? b.byte() / 1000.0 : std::abs(b.real());
+  o.jacobian = static_cast<InteractionMatrix>(b.small(0, 3));
+  o.polar_min_radius = b.byte() < 200 ? 1e-3 : b.real();
+  o.diagnostics = b.byte() < 200;
+  o.exact_diagnostics = b.byte() < 40;
+  if (b.byte() > 220) o.adaptive_gain = {b.real(), b.real(), b.real()};
+  if (b.byte() > 200) o.max_linear_speed = b.real();
+  if (b.byte() > 200) o.max_angular_speed = b.real();
+  bool options_ok = true;
+  try {
+    Servo::validate(o);
+  } catch (const std::invalid_argument&) {
+    options_ok = false;
+  }
+  std::optional<Servo> servo;
+  try {
+    servo.emplace(*layout, o);
+  } catch (const std::invalid_argument&) {
+  }
+  ibvs_test::report(options_ok == servo.has_value(), "Servo(options) throws iff validate(options) does", __FILE__,
+                    __LINE__);
+  if (!servo) return;
+
+  const int n = layout->n_points();
+  ServoOutput out(*layout);
+  for (int frame = 0; frame < 3; ++frame) {
+    // Sizes mostly right; sometimes one off (every argument can be the wrong one).
+    const int wrong = b.byte() < 230 ? -1 : b.small(0, 3);
+    Points uv(2, wrong == 0 ? n + 1 : n), uvd(2, wrong == 1 ? n + 1 : n);
+    Eigen::VectorXd z(wrong == 2 ? n + 1 : n), zd(wrong == 3 ? n + 1 : n);
+    for (Eigen::Index i = 0; i < uv.size(); ++i) uv.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < uvd.size(); ++i) uvd.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < z.size(); ++i) z(i) = b.depth();
+    for (Eigen::Index i = 0; i < zd.size(); ++i) zd(i) = b.depth();
+    bool valid = true;
+    try {
+      servo->validate(uv, z, uvd, zd);
+    } catch (const std::invalid_argument&) {
+      valid = false;
+    }
+    const Status st = servo->update(uv, z, uvd, zd, out);
+    ibvs_test::report(valid == (st != Status::invalid_input), "validate() throws iff update() refuses", __FILE__,
+                      __LINE__, layout->describe());
+    check_output(out, st, o.diagnostics, "Servo::update");
+  }
+}
+
+void fuzz_partitioned(Bytes& b) {
+  PartitionedOptions o;
+  o.gain = b.byte() < 200 ? 0.5 : b.real();
+  o.damping = b.byte() < 200 ? 0.0 : b.real();
+  o.segment_first = b.small(-1, 4);
+  o.segment_second = b.small(-1, 4);
+  std::optional<PartitionedServo> servo;
+  try {
+    servo.emplace(b.small(2, 5), o);
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  const int n = servo->layout().n_points();
+  ServoOutput out(servo->layout());
+  Points uv(2, n), uvd(2, n);
+  Eigen::VectorXd z(n);
+  for (Eigen::Index i = 0; i < uv.size(); ++i) uv.data()[i] = b.coordinate();
+  for (Eigen::Index i = 0; i < uvd.size(); ++i) uvd.data()[i] = b.coordinate();
+  for (Eigen::Index i = 0; i < n; ++i) z(i) = b.depth();
+  bool valid = true;
+  try {
+    servo->validate(uv, z, uvd);
+  } catch (const std::invalid_argument&) {
+    valid = false;
+  }
+  const Status st = servo->update(uv, z, uvd, z, out);
+  ibvs_test::report(valid == (st != Status::invalid_input), "partitioned: validate() throws iff update() refuses",
+                    __FILE__, __LINE__);
+  check_output(out, st, true, "PartitionedServo::update");
+}
+
+void fuzz_pinv_exp(Bytes& b) {
+  MatrixX6 J(b.small(0, 9), 6);
+  const bool hostile = b.byte() < 128;
+  const double scale = b.real();
+  for (Eigen::Index i = 0; i < J.size(); ++i) J.data()[i] = hostile ? b.real() : scale * (b.byte() - 127.5);
+  const double lambda = b.byte() < 100 ? 0.0 : b.real();
+  try {
+    const Eigen::Matrix<double, 6, Eigen::Dynamic> P = damped_pinv(J, lambda);
+    CHECK(P.allFinite() && P.cols() == J.rows());
+  } catch (const std::invalid_argument&) {
+  }
+  try {
+    CHECK(singular_values(J).allFinite());
+  } catch (const std::invalid_argument&) {
+  }
+  Twist xi;
+  for (int i = 0; i < 6; ++i) xi(i) = b.real();
+  if (xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry) {  // se3_exp's documented domain
+    const Pose T = se3_exp(xi);
+    CHECK(T.allFinite());
+    const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
+    CHECK((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-12);
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  Bytes b{data, size};
+  switch (b.byte() % 3) {
+    case 0: fuzz_servo(b); break;
+    case 1: fuzz_partitioned(b); break;
+    default: fuzz_pinv_exp(b); break;
+  }
+  return 0;
+}
+
+#if !defined(IBVS_LIBFUZZER)
+// The seeded random driver (ctest): [cases] x 20 inputs of 0..400 random bytes.
+void run_tests() {
+  std::mt19937_64 rng(ibvs_test::seed);
+  std::vector<std::uint8_t> buf;
+  const long runs = 20L * ibvs_test::cases;
+  for (long k = 0; k < runs; ++k) {
+    buf.resize(rng() % 401);
+    for (auto& x : buf) x = static_cast<std::uint8_t>(rng());
+    LLVMFuzzerTestOneInput(buf.data(), buf.size());
+  }
+  std::printf("fuzz: %ld inputs\n", runs);
+}
+#endif
