@@ -20,6 +20,12 @@ using ibvs::py_servo::PyServo;
 
 namespace {
 
+// Python expression of a layout: Layout.stacked(4) or Layout([(0, 'polar'), ...], n_points=5).
+std::string layout_repr(const Layout& l) {
+  const std::string d = l.describe();
+  return d[0] == '[' ? "Layout(" + d + ")" : "Layout." + d;
+}
+
 Representation representation(py::handle obj, const std::string& name) {
   if (py::isinstance<Representation>(obj)) return obj.cast<Representation>();
   if (!py::isinstance<py::str>(obj))
@@ -164,11 +170,7 @@ n_points defaults to the largest point index + 1.)")
                              },
                              "List of (point_index, representation) in row order.")
       .def(py::self == py::self)
-      .def("__repr__",
-           [](const Layout& l) {
-             const std::string d = l.describe();
-             return d[0] == '[' ? "Layout(" + d + ")" : "Layout." + d;
-           })
+      .def("__repr__", &layout_repr)
       .def("__hash__", [](const Layout& l) { return py::hash(py::str(l.describe())); });
 
   m.def(
@@ -446,7 +448,7 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
       .def_property_readonly("polar_min_radius", [](const PyServo& s) { return s.servo.options().polar_min_radius; })
       .def("__repr__", [](const PyServo& s) {
         const auto& o = s.servo.options();
-        return "Servo(Layout." + s.servo.layout().describe() + ", gain=" + std::string(py::repr(gain_of(o))) +
+        return "Servo(" + layout_repr(s.servo.layout()) + ", gain=" + std::string(py::repr(gain_of(o))) +
                ", damping=" + std::to_string(o.damping) + ", jacobian='" + interaction_name(o.jacobian) + "')";
       });
 }

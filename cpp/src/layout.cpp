@@ -126,11 +126,16 @@ std::string Layout::describe() const {
   }
   std::string s = "[";
   s.reserve(blocks_.size() * 20);
+  int max_index = -1;
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
     if (k) s += ", ";
     s += "(" + std::to_string(blocks_[k].point) + ", '" + name_of(blocks_[k].representation) + "')";
+    max_index = std::max(max_index, blocks_[k].point);
   }
-  return s + "]";
+  s += "]";
+  // n_points only when the blocks do not imply it (points beyond the largest index).
+  if (n_points_ != max_index + 1) s += ", n_points=" + std::to_string(n_points_);
+  return s;
 }
 
 void stacked_features(const Layout& layout, const Eigen::Ref<const Points>& uv,

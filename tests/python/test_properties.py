@@ -80,11 +80,14 @@ def test_servo_update_finite_or_refused(layout, data, mode, damping, diagnostics
         assert finite(res.sigma_min, res.sigma_max) and 0 <= res.sigma_min <= res.sigma_max * (1 + 1e-9)
     else:
         assert math.isnan(res.sigma_min) and res.status == ibvs.Status.ok
-    # The twist is the damped pseudoinverse's (issue 13.1 / 12.4).
+    # The twist is the damped pseudoinverse's (issue 13.1 / 12.4): to 1e-9 relative, or to what
+    # any backward-stable solver can promise on an ill-conditioned J (eps cond(J) relative, where
+    # cond counts the singular values kept), whichever is larger.
     ref = -0.7 * ibvs.damped_pinv(res.jacobian, damping) @ res.error
     s = ibvs.singular_values(res.jacobian)
     kept = s[s > max(len(res.error), 6) * np.finfo(float).eps * s[0]].min()
-    assert np.linalg.norm(res.velocity - ref) <= 1e-9 * np.linalg.norm(ref) + 1e-13 * 0.7 * np.linalg.norm(res.error) / kept
+    rel = max(1e-9, 20 * np.finfo(float).eps * s[0] / kept)
+    assert np.linalg.norm(res.velocity - ref) <= rel * np.linalg.norm(ref) + 1e-13 * 0.7 * np.linalg.norm(res.error) / kept
 
 
 def variants(a):
@@ -95,7 +98,9 @@ def variants(a):
     if big is not None:
         big[1::2] = a
         out.append(big[1::2])
-    if np.array_equal(a.astype(np.float32).astype(np.float64), a, equal_nan=True):
+    with np.errstate(over="ignore"):  # a value beyond float32's range has no float32 twin
+        exact32 = np.array_equal(a.astype(np.float32).astype(np.float64), a, equal_nan=True)
+    if exact32:
         out.append(a.astype(np.float32))
     if np.all(np.isfinite(a)) and np.array_equal(np.round(a), a) and np.all(np.abs(a) < 2**31):
         out.append(a.astype(np.int32))
@@ -123,7 +128,8 @@ def test_servo_update_bit_identical_for_equivalent_inputs(layout, data, mode, da
 @given(st.integers(1, 12), st.data(), st.one_of(st.just(0.0), ANY_FLOAT))
 def test_damped_pinv_finite_or_refused(m, data, damping):
     scale = data.draw(st.sampled_from([1.0, 5e-324, 1e-300, 1e-150, 1e-100, 1e100, 1e150, 1e200, 1e300]))
-    J = data.draw(hnp.arrays(np.float64, (m, 6), elements=st.one_of(st.floats(-1, 1), ANY_FLOAT))) * scale
+    with np.errstate(over="ignore", under="ignore"):  # products beyond the range are inf: refused below
+        J = data.draw(hnp.arrays(np.float64, (m, 6), elements=st.one_of(st.floats(-1, 1), ANY_FLOAT))) * scale
     try:
         P = ibvs.damped_pinv(J, damping)
     except ValueError as e:

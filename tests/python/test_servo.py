@@ -236,7 +236,7 @@ def test_setters_validate():
         (lambda: ibvs.Layout([]), ValueError, "blocks"),
         (lambda: ibvs.Layout([(0, "spherical")]), ValueError, r"blocks\[0\]"),
         (lambda: ibvs.Layout([(0, "polar"), (0, 3)]), TypeError, r"blocks\[1\]"),
-        (lambda: ibvs.Layout([(-1, "polar")]), ValueError, "negative"),
+        (lambda: ibvs.Layout([(-1, "polar")]), ValueError, r"point index\) must be in \[0, "),
         (lambda: ibvs.Layout([(0, "polar"), (0, "polar")]), ValueError, "repeats"),
         (lambda: ibvs.Layout([(5, "polar")], n_points=4), ValueError, "out of range"),
         (lambda: ibvs.Layout([("a", "polar")]), TypeError, "point index"),

@@ -44,7 +44,8 @@ class Layout {
   int n_points() const noexcept { return n_points_; }
   int rows() const noexcept { return static_cast<int>(2 * blocks_.size()); }
   const std::vector<Block>& blocks() const noexcept { return blocks_; }
-  /// "cartesian(4)", "polar(4)", "stacked(4)" or the explicit block list.
+  /// "cartesian(4)", "polar(4)", "stacked(4)" or the explicit block list, followed by
+  /// ", n_points=N" when N is more than the largest point index + 1.
   std::string describe() const;
 
   bool operator==(const Layout& o) const noexcept;
