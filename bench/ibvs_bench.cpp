@@ -500,9 +500,12 @@ void bench_floor(const std::string& kind, const Options& o, const Frames& fr) {
 void check_floor_agrees(const std::string& kind, const Options& o, const Frames& fr);
 
 /// JointMapping::update (robot_mapping.hpp): camera twist -> joint velocities
-/// for n joints, over 64 random end-effector Jacobians and twists (SVD of the
-/// 6 x n camera Jacobian, speed limits on), undamped and damped.
-void bench_robot(int n, double damping, const Options& o) {
+/// for n joints, over 64 random end-effector Jacobians and twists (speed limits
+/// on), undamped and damped. Random Jacobians are well conditioned: the normal
+/// route (Cholesky of Jc Jc^T). near_singular: two rows of J nearly equal
+/// (1e-7 apart, cond(Jc) ~ 1e7: a direction the arm can hardly move in), so that every frame
+/// takes the SVD route, the cost of the route before the normal one existed.
+void bench_robot(int n, double damping, const Options& o, bool near_singular = false) {
   std::mt19937 rng(7);
   std::normal_distribution<double> g(0.0, 1.0);
   std::vector<ibvs::JointMappingInput> in(Frames::count, ibvs::JointMappingInput(n));
@@ -510,6 +513,8 @@ void bench_robot(int n, double damping, const Options& o) {
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < 6; ++i) x.jacobian(i, j) = g(rng);
     for (int i = 0; i < 6; ++i) x.twist(i) = 0.1 * g(rng);
+    if (near_singular)
+      for (int j = 0; j < n; ++j) x.jacobian(5, j) = x.jacobian(4, j) + 1e-7 * g(rng);
   }
   ibvs::Pose eMc = ibvs::Pose::Identity();
   eMc.topRightCorner<3, 1>() << 0.05, -0.03, 0.04;
@@ -518,8 +523,9 @@ void bench_robot(int n, double damping, const Options& o) {
   jo.max_joint_speed = ibvs::JointVector::Constant(n, 2.0);
   ibvs::JointMapping map(n, eMc, jo);
   ibvs::JointMappingOutput out(n);
-  Result& r = add("robot", damping > 0 ? "JointMapping::update damped" : "JointMapping::update", "joints", n, 6,
-                  damping > 0 ? "SVD damped" : "SVD", damping, -1);
+  const std::string name = std::string(damping > 0 ? "JointMapping::update damped" : "JointMapping::update") +
+                           (near_singular ? ", near-singular (SVD)" : "");
+  Result& r = add("robot", name.c_str(), "joints", n, 6, near_singular ? "SVD" : "normal", damping, -1);
   time_case(r, o, [&](long i) {
     map.update(in[static_cast<std::size_t>(i & (Frames::count - 1))], out);
     keep(out.qdot(0));
@@ -1034,6 +1040,8 @@ int main(int argc, char** argv) {
     for (int n : {6, 7, 16})
       for (double damping : {0.0, o.damping}) {
         bench_robot(n, damping, o);
+        print_row(table, g_results.back());
+        bench_robot(n, damping, o, true);
         print_row(table, g_results.back());
         std::fflush(table);
       }

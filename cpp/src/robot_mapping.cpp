@@ -2,6 +2,8 @@
 
 #include "ibvs/pinv.hpp"
 
+#include "solve.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -115,6 +117,7 @@ Status JointMapping::update(const JointMappingInput& in, JointMappingOutput& out
   }
   camera_jacobian(eMc_, options_.frame, in.jacobian, in.base_rotation, out.camera_jacobian);
   if (!out.camera_jacobian.allFinite()) return refuse();  // finite input whose eq. (1) overflows
+  if (n >= 6 && normal_route(in, out)) return finish(out, Status::ok);
   work_ = out.camera_jacobian;
   svd_.compute(work_, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const auto& s = svd_.singularValues();  // min(6, n), decreasing
@@ -144,7 +147,63 @@ Status JointMapping::update(const JointMappingInput& in, JointMappingOutput& out
   for (Eigen::Index i = 0; i < d; ++i)
     if (s(i) > tol) z.noalias() -= V.col(i).dot(in.secondary) * V.col(i);
   out.qdot += z;
-  // Uniform joint-speed saturation.
+  return finish(out, rank < std::min<int>(6, n) ? Status::singular : Status::ok);
+}
+
+// The normal route for n >= 6 (see the header, "Two routes"): A = Jc Jc^T (6x6),
+// its Cholesky factor, the full-rank test tr(A) tr(A^-1) <= 1e10 of solve.hpp
+// (cond(Jc) <= 1e5: every singular value far above the rank tolerance, rank 6),
+// then eqs. (2)-(4) as qdot = Jc^T (A + lambda^2 I)^-1 v and
+// z - Jc^T A^-1 Jc z, each solve with one refinement step whose residual is
+// taken from Jc itself. sigma_min, sigma_max from the eigenvalues of A,
+// manipulability = sqrt(det A) = prod diag(L). False (nothing written but
+// scratch) when the test fails: the caller takes the SVD route.
+bool JointMapping::normal_route(const JointMappingInput& in, JointMappingOutput& out) noexcept {
+  const auto& Jc = out.camera_jacobian;
+  detail::Matrix6 A;
+  for (int j = 0; j < 6; ++j)
+    for (int i = j; i < 6; ++i) A(i, j) = A(j, i) = Jc.row(i).dot(Jc.row(j));
+  detail::Normal gram;
+  if (!gram.factor(A) || gram.bound > detail::normal_route_limit(0.0)) return false;
+  double ev[6];
+  if (!detail::symmetric_eigenvalues(A, ev)) return false;
+  out.sigma_min = std::sqrt(std::max(ev[0], 0.0));
+  out.sigma_max = std::sqrt(std::max(ev[5], 0.0));
+  out.manipulability = gram.L.diagonal().prod();
+  double lambda = options_.damping;  // eq. (3)
+  if (options_.singular_region > 0.0) {
+    const double ratio = out.manipulability / options_.singular_region;
+    lambda = ratio < 1.0 ? options_.damping * std::sqrt(1.0 - ratio * ratio) : 0.0;
+  }
+  out.damping = lambda;
+  out.rank = 6;
+  const double l2 = lambda * lambda;
+  detail::Normal damped;
+  if (l2 > 0.0) {
+    detail::Matrix6 N = A;
+    N.diagonal().array() += l2;
+    if (!damped.factor(N)) return false;
+  }
+  // y = (Jc Jc^T + l2 I)^-1 b, refined once: y += N^-1 (b - Jc (Jc^T y) - l2 y).
+  const auto solve = [&](const detail::Normal& f, double l2f, const Twist& b) noexcept {
+    Twist y = f.Li.transpose() * (f.Li * b);
+    JointVector Jty = Jc.transpose() * y;
+    const Twist r = b - Jc * Jty - l2f * y;
+    y.noalias() += f.Li.transpose() * (f.Li * r);
+    return y;
+  };
+  out.qdot.noalias() = Jc.transpose() * solve(l2 > 0.0 ? damped : gram, l2, in.twist);
+  if (!in.secondary.isZero(0.0)) {  // eq. (4): the null space of Jc (full row rank)
+    const Twist Jz = Jc * in.secondary;
+    out.qdot += in.secondary;
+    out.qdot.noalias() -= Jc.transpose() * solve(gram, 0.0, Jz);
+  }
+  return true;
+}
+
+// Uniform joint-speed saturation, the finiteness check and the status.
+Status JointMapping::finish(JointMappingOutput& out, Status status) noexcept {
+  const int n = n_;
   if (options_.max_joint_speed.size() == n) {
     double scale = 1.0;
     for (int i = 0; i < n; ++i) {
@@ -157,8 +216,15 @@ Status JointMapping::update(const JointMappingInput& in, JointMappingOutput& out
       out.saturation_scale = scale;
     }
   }
-  if (!out.qdot.allFinite()) return refuse();  // e.g. a huge twist over a tiny singular value
-  return out.status = rank < std::min<int>(6, n) ? Status::singular : Status::ok;
+  if (!out.qdot.allFinite()) {  // e.g. a huge twist over a tiny singular value
+    out.qdot.setZero(n);
+    out.saturated = false;
+    out.saturation_scale = 1.0;
+    out.sigma_min = out.sigma_max = out.manipulability = out.damping = 0.0;
+    out.rank = 0;
+    return out.status = Status::invalid_input;
+  }
+  return out.status = status;
 }
 
 }  // namespace ibvs

@@ -43,6 +43,15 @@
 // every |qdot_i| <= max_joint_speed_i (its direction, hence the camera's path,
 // is kept; gain.hpp scales the twist the same way).
 //
+// Two routes, one result (to ~1e-10 relative): for n >= 6 and a well
+// conditioned Jc, the normal equations of the 6x6 A = Jc Jc^T by Cholesky
+// (qdot = Jc^T (A + lambda^2 I)^-1 v, the null-space projector
+// I - Jc^T A^-1 Jc; one refinement step each; sigma_min / sigma_max from the
+// eigenvalues of A; about a fifth of the SVD's cost), taken when the bound
+// tr(A) tr(A^-1) >= cond(A) of cpp/src/solve.hpp is at most 1e10, i.e.
+// cond(Jc) <= 1e5, so that rank = 6 for certain; otherwise (n < 6, near or at
+// a singularity) the SVD of Jc as written above.
+//
 // JointMapping is sized once (n <= max_joints, a compile-time bound that keeps
 // every matrix on the stack); update() is noexcept and never allocates.
 #pragma once
@@ -136,6 +145,8 @@ class JointMapping {
   JointMappingOptions options_;
   // Both sizes dynamic with compile-time bounds: Eigen's QR preconditioners
   // assert on a fixed 6-row type with fewer than 6 columns.
+  bool normal_route(const JointMappingInput& in, JointMappingOutput& out) noexcept;
+  Status finish(JointMappingOutput& out, Status status) noexcept;
   using SvdMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, max_joints>;
   SvdMatrix work_;
   Eigen::JacobiSVD<SvdMatrix> svd_;
