@@ -14,8 +14,6 @@ using namespace ibvs::py_convert;
 
 namespace {
 
-std::string type_name(py::handle obj) { return py::str(py::type::handle_of(obj).attr("__name__")); }
-
 JacobianFrame frame_arg(py::handle obj) {
   if (!py::isinstance<py::str>(obj))
     throw py::type_error("frame must be 'end_effector' or 'base', got " + type_name(obj));
