@@ -21,16 +21,26 @@ void require_camera(const CameraModel* camera) {
 }
 
 // Throws naming the first pixel the camera cannot normalise; returns the normalised points.
+// Pixels have no bound of their own: the limit is that of the normalised point they give
+// (|u|, |v| <= max_normalized_coordinate, limits.hpp), which update() checks too.
 Points normalized(const CameraModel& camera, const Eigen::Ref<const Points>& pixels, const char* name, int n) {
-  detail::check_points(pixels, name, n);
+  if (pixels.cols() != n)
+    throw std::invalid_argument(std::string("ibvs: ") + name + " must hold " + std::to_string(n) +
+                                " points for this layout, got " + std::to_string(pixels.cols()));
   Points uv(2, pixels.cols());
   Eigen::Vector2d q;
   for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
+    const std::string which = std::string("ibvs: ") + name + "[" + std::to_string(i) + "]";
+    if (!pixels.col(i).allFinite()) throw std::invalid_argument(which + " is not finite");
+    const std::string at =
+        which + " = (" + detail::number(pixels(0, i)) + ", " + detail::number(pixels(1, i)) + ")";
     if (!camera.normalize(pixels(0, i), pixels(1, i), q))
-      throw std::invalid_argument(std::string("ibvs: ") + name + "[" + std::to_string(i) + "] = (" +
-                                  std::to_string(pixels(0, i)) + ", " + std::to_string(pixels(1, i)) +
-                                  ") has no inverse in the camera model (beyond the radius where its distortion "
-                                  "stops being one-to-one)");
+      throw std::invalid_argument(at + " has no inverse in the camera model (beyond the radius where its distortion "
+                                       "stops being one-to-one)");
+    if (!detail::valid_coordinate(q(0)) || !detail::valid_coordinate(q(1)))
+      throw std::invalid_argument(at + " normalises to (" + detail::number(q(0)) + ", " + detail::number(q(1)) +
+                                  "), outside |u|, |v| <= " + detail::number(max_normalized_coordinate) +
+                                  " (84 degrees off the optical axis)");
     uv.col(i) = q;
   }
   return uv;
@@ -42,11 +52,9 @@ Status pixel_step(Law& law, detail::PixelFrontEnd& front, const Eigen::Ref<const
                   const Eigen::Ref<const Eigen::VectorXd>& depth, const Eigen::Ref<const Points>& pixels_desired,
                   const Eigen::Ref<const Eigen::VectorXd>& depth_desired, ServoOutput& out) noexcept {
   if (!front.normalize(pixels, pixels_desired)) {
-    out.velocity.setZero();
-    out.saturated = false;
-    out.saturation_scale = 1.0;
+    detail::refuse(out);  // zero twist, NaN error, Jacobian and diagnostics, as update()'s refusals
     out.pixel_error = std::numeric_limits<double>::quiet_NaN();
-    return out.status = Status::invalid_input;
+    return out.status;
   }
   const Status s = law.update(front.uv, depth, front.uv_desired, depth_desired, out);
   out.pixel_error = detail::PixelFrontEnd::max_distance(pixels, pixels_desired);
