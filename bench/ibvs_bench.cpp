@@ -376,9 +376,12 @@ Result& add(const char* section, const char* name, const std::string& layout, in
 void print_row(std::FILE* f, const Result& r);
 
 void bench_update(const char* section, const char* name, const std::string& kind, int n, double damping,
-                  bool diagnostics, const Options& o, const Frames& fr) {
+                  bool diagnostics, const Options& o, const Frames& fr,
+                  ibvs::AngleWrap wrap = ibvs::AngleWrap::consistent) {
   const Layout layout = make_layout(kind, n);
-  ibvs::Servo servo(layout, servo_options(o.gain, damping, diagnostics));
+  ibvs::ServoOptions so = servo_options(o.gain, damping, diagnostics);
+  so.angle_wrap = wrap;
+  ibvs::Servo servo(layout, so);
   ibvs::ServoOutput out(layout);
   Result& r = add(section, name, kind, n, layout.rows(), damping > 0 ? "LLT" : "QR+SVD", damping, diagnostics);
   time_case(r, o, [&](long i) {
@@ -520,6 +523,9 @@ void bench_components(const std::string& kind, int n, const Options& o) {
   else if (m == 16) bench_solve<16>(kind, n, o, fr);
   else bench_solve<Eigen::Dynamic>(kind, n, o, fr);
   bench_update("components", "Servo::update damped", kind, n, o.damping, false, o, fr);
+  if (kind != "cartesian")  // the default consistent angle wrap against eq. (13) point by point
+    bench_update("components", "Servo::update damped, per-point wrap", kind, n, o.damping, false, o, fr,
+                 ibvs::AngleWrap::per_point);
   bench_update("components", "Servo::update damped + diagnostics", kind, n, o.damping, true, o, fr);
   bench_update("components", "Servo::update undamped (SVD)", kind, n, 0.0, true, o, fr);
   if (n == 4) {

@@ -273,6 +273,9 @@ void run_tests() {
           o.damping = lambda;
           o.jacobian = mode;
           o.diagnostics = diag;
+          // Both angle wraps: the consistent one (default; its circular mean and the
+          // frame-to-frame centre) and eq. (13) point by point.
+          o.angle_wrap = diag ? AngleWrap::consistent : AngleWrap::per_point;
           if (diag) {  // adaptive gain and saturation on the hot path as well
             o.adaptive_gain = {2.0, 0.5, 10.0};
             o.max_linear_speed = 0.01;
@@ -291,6 +294,8 @@ void run_tests() {
           Eigen::internal::set_is_malloc_allowed(false);
           Status st = Status::ok;
           for (int k = 0; k < 3; ++k) st = servo.update(in, out);
+          servo.reset();
+          st = servo.update(in, out);
           in.depth(0) = -1.0;  // the invalid-input path must not allocate either
           const Status bad = servo.update(in, out);
           Eigen::internal::set_is_malloc_allowed(true);

@@ -225,6 +225,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   EpisodeStatus& st = result_.status;
   mt = Metrics{};
   st = EpisodeStatus{};
+  if (Servo* s = std::get_if<Servo>(&servo_)) s->reset();  // a new task: no angle-wrap branch from the last run
   Pose T_est = Pose::Identity();
   bool have_est = false;
   double depth0 = 0.0, error0 = 0.0;
