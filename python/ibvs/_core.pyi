@@ -56,8 +56,11 @@ def features(uv: _ArrayLike, layout: Layout) -> _FloatArray:
 def jacobian(uv: _ArrayLike, depth: _Depth, layout: Layout, polar_min_radius: float = 1e-3) -> _FloatArray:
     """(M, 6) stacked image Jacobian."""
 
-def feature_error(f: _ArrayLike, f_desired: _ArrayLike, layout: Layout) -> _FloatArray:
-    """(M,) f (-) f*, theta rows wrapped into (-pi, pi]."""
+def feature_error(
+    f: _ArrayLike, f_desired: _ArrayLike, layout: Layout, angle_wrap: str = "consistent"
+) -> _FloatArray:
+    """(M,) f (-) f*, theta rows wrapped as one rotation ("consistent") or each into (-pi, pi]
+    ("per_point")."""
 
 def damped_pinv(J: _ArrayLike, damping: float = 0.0) -> _FloatArray:
     """(6, M) pseudoinverse of J (M, 6)."""
@@ -230,6 +233,7 @@ class Servo:
     damping: float
     max_linear_speed: float
     max_angular_speed: float
+    angle_wrap: str
     def __init__(
         self,
         layout: Layout,
@@ -241,6 +245,7 @@ class Servo:
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
         camera: CameraModel | None = None,
+        angle_wrap: str = "consistent",
     ) -> None: ...
     @staticmethod
     def automatic_hybrid(
@@ -253,6 +258,7 @@ class Servo:
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
         camera: CameraModel | None = None,
+        angle_wrap: str = "consistent",
     ) -> Servo: ...
     def update(
         self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
@@ -262,6 +268,8 @@ class Servo:
         self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult:
         """pixels, pixels_desired (N, 2) or (N, 1, 2) as measured; normalised with the servo's camera."""
+    def reset(self) -> None:
+        """Forget the previous frame's angle-wrap branch."""
     @property
     def camera(self) -> CameraModel | None: ...
     @property
