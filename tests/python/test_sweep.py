@@ -7,6 +7,7 @@ import pytest
 
 import ibvs
 import ibvs.sweep as sw
+from ibvs import sim
 from ibvs.__main__ import main
 
 # Small and fast: short episodes, few starts.
@@ -68,7 +69,9 @@ def test_aggregate_and_table():
     assert by[("cartesian", 90.0)]["retreat"] > 0.5 > by[("polar", 90.0)]["retreat"]
     for t in table:
         assert 0 <= t["left_image"] <= 1 and t["joint_limit"] == 0
+        assert sum(t[o] for o in t["outcomes"]) == pytest.approx(1)  # every outcome has its column
     text = sw.format_table(table)
+    assert all(o in text.splitlines()[0] for o in sim.OUTCOMES)
     assert text.count("\n") == 5 and "| polar | [90, 180] | 1 | 100.0 %" in text
     with pytest.raises(ValueError, match="by"):
         sw.aggregate(rows, by="nope")
@@ -160,3 +163,15 @@ def test_cli(tmp_path, capsys):
             main(bad)
         assert e.value.code == 2, bad
     capsys.readouterr()
+
+
+def test_angle_wrap_option():
+    """The sweep's angle_wrap is set on every ibvs.Servo, recorded per row and part of the config."""
+    kw = dict(jobs=1, schemes=["polar", "partitioned"], grid={"rz_deg": [179.8]}, duration=2.0,
+              progress=False)
+    a = sw.sweep(None, **kw)
+    b = sw.sweep(None, angle_wrap="per_point", **kw)
+    assert {r["angle_wrap"] for r in a} == {"consistent"} and {r["angle_wrap"] for r in b} == {"per_point"}
+    assert a[0]["config"] != b[0]["config"]
+    with pytest.raises(ValueError, match="angle_wrap"):
+        sw.sweep(None, angle_wrap="both", **kw)

@@ -39,6 +39,7 @@ __all__ = [
     "Gantry",
     "History",
     "Metrics",
+    "OUTCOMES",
     "Result",
     "Robot",
     "RunStatus",
