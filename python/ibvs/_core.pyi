@@ -501,5 +501,6 @@ class sim:
         depth_scale: float = 1.0,
         boundary_margin: float = 0.0,
         boundary_gain: float = 0.1,
+        standoff_ratio: float = 0.05,
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""

@@ -154,6 +154,7 @@ def test_cli(tmp_path, capsys):
                  "--jobs", "1", "--quiet", "--range", "rz_deg=0:90", "--bin-width", "45"]) == 0
     text = capsys.readouterr().out
     assert "| polar | [0, 45)" in text and "6 episodes" in text
+    assert all(o in text for o in ("diverged", "timeout", "target_backside", "collision"))
     for bad in (["sweep"], ["sweep", "--out", str(out), "--episodes", "-3"], ["sweep", "--out", str(out), "--schemes", "x"],
                 ["sweep", "--out", str(out), "--range", "tx=1:0"], ["sweep", "--out", str(out), "--range", "bogus=0:1"],
                 ["sweep", "--out", str(out), "--jobs", "0"], ["sweep", "--out", str(out), "--world", "moon"],
