@@ -37,7 +37,7 @@ AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, co
             ? polar_falls_back(r2, polar_min_radius) || polar_falls_back(rd2, polar_min_radius)
             : !(r2 > 0.0 && rd2 > 0.0))
       continue;
-    const double k = 1.0 / (std::sqrt(r2) * std::sqrt(rd2));
+    const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
     if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
   }
   return sum;

@@ -60,12 +60,16 @@ struct AngleResultant {
     s += sin_d;
     ++count;
   }
-  /// |sum| / count in [0, 1]; 0 without any angle.
-  double length() const noexcept { return count > 0 ? std::hypot(c, s) / count : 0.0; }
+  /// |sum| / count in [0, 1]; 0 without any angle (|c|, |s| <= count: no overflow to guard against).
+  double length() const noexcept { return count > 0 ? std::sqrt(c * c + s * s) / count : 0.0; }
   /// True when the circular mean is defined (length() >= wrap_min_resultant).
   bool defined() const noexcept { return count > 0 && length() >= wrap_min_resultant; }
-  /// Circular mean in (-pi, pi] (meaningful only when defined()).
-  double mean() const noexcept { return wrap_angle(std::atan2(s, c)); }
+  /// Circular mean in (-pi, pi] (meaningful only when defined()): atan2 is in [-pi, pi], and its
+  /// -pi (a sum along -x with a sine of -0) is taken as +pi.
+  double mean() const noexcept {
+    const double m = std::atan2(s, c);
+    return m <= -pi ? pi : m;
+  }
 };
 
 /// A difference d in (-pi, pi] wrapped into (centre - pi, centre + pi]: d itself
