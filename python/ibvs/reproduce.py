@@ -22,6 +22,7 @@ import numpy as np
 
 import ibvs
 from ibvs import schemes, sim
+from ibvs.scenario import ANGLE_WRAPS  # the angle wraps of ibvs.Servo
 
 #: The paper's four schemes (factories in ibvs.schemes) and their titles in the figures.
 SCHEMES = schemes.PAPER
@@ -60,9 +61,6 @@ GAIN = {"free": 1.0, "gantry": 2.0}
 DURATION = {"free": 30.0, "gantry": 15.0}
 DEPTH = {"free": "exact", "gantry": "pose"}
 TOLERANCE = 1e-5
-#: Angle wraps of the polar theta errors (ibvs.Servo angle_wrap): one rotation about their circular
-#: mean (the default) or eq. (13) point by point.
-ANGLE_WRAPS = ("consistent", "per_point")
 
 
 def wrap_label(scheme: str, angle_wrap: str) -> str:

@@ -176,3 +176,20 @@ def test_angle_wrap_option():
     assert a[0]["config"] != b[0]["config"]
     with pytest.raises(ValueError, match="angle_wrap"):
         sw.sweep(None, angle_wrap="both", **kw)
+
+
+def test_angle_wrap_in_a_scenario_file(tmp_path):
+    """angle_wrap is a [control] key of scenario files; a bad value is refused naming it."""
+    from pathlib import Path
+
+    from ibvs import scenario
+
+    text = (Path(__file__).parents[2] / "docs" / "scenario.toml").read_text()
+    for value, ok in (("per_point", True), ("both", False)):
+        path = tmp_path / f"{value}.toml"
+        path.write_text(text.replace("[control]\n", f'[control]\nangle_wrap = "{value}"\n'))
+        if ok:
+            assert scenario.load(path)[0].angle_wrap == "per_point"
+        else:
+            with pytest.raises(ValueError, match="angle_wrap"):
+                scenario.load(path)
