@@ -390,10 +390,12 @@ int count_robust(const Layout& layout, double damping, const Frames& fr) {
 }
 
 void bench_update(const char* section, const char* name, const std::string& kind, int n, double damping,
-                  bool diagnostics, const Options& o, const Frames& fr, bool exact = false, bool read_sigma = false) {
+                  bool diagnostics, const Options& o, const Frames& fr, bool exact = false, bool read_sigma = false,
+                  ibvs::AngleWrap wrap = ibvs::AngleWrap::consistent) {
   const Layout layout = make_layout(kind, n);
   ibvs::ServoOptions so = servo_options(o.gain, damping, diagnostics);
   so.exact_diagnostics = exact;
+  so.angle_wrap = wrap;
   ibvs::Servo servo(layout, so);
   ibvs::ServoOutput out(layout);
   Result& r = add(section, name, kind, n, layout.rows(), "auto", damping, diagnostics);
@@ -562,6 +564,9 @@ void bench_components(const std::string& kind, int n, const Options& o) {
   bench_update("components", "Servo::update default (damping 0, diag.)", kind, n, 0.0, true, o, fr);
   bench_update("components", "Servo::update default, sigma_min() read", kind, n, 0.0, true, o, fr, false, true);
   bench_update("components", "Servo::update tuned (damped, no diag.)", kind, n, o.damping, false, o, fr);
+  if (kind != "cartesian")  // the default consistent angle wrap against eq. (13) point by point
+    bench_update("components", "Servo::update tuned, per-point wrap", kind, n, o.damping, false, o, fr, false, false,
+                 ibvs::AngleWrap::per_point);
   bench_update("components", "Servo::update damped + diagnostics", kind, n, o.damping, true, o, fr);
   bench_update("components", "Servo::update default, exact diagnostics", kind, n, 0.0, true, o, fr, true);
   if (n == 4) {

@@ -53,6 +53,18 @@ const char* interaction_name(InteractionMatrix j) {
   return j == InteractionMatrix::desired ? "desired" : j == InteractionMatrix::mean ? "mean" : "current";
 }
 
+AngleWrap angle_wrap_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("angle_wrap must be 'consistent' or 'per_point', got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  const auto s = obj.cast<std::string>();
+  if (s == "consistent") return AngleWrap::consistent;
+  if (s == "per_point") return AngleWrap::per_point;
+  throw py::value_error("angle_wrap must be 'consistent' or 'per_point', got '" + s + "'");
+}
+
+const char* angle_wrap_name(AngleWrap w) { return w == AngleWrap::per_point ? "per_point" : "consistent"; }
+
 
 Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
   if (py::isinstance<py::str>(blocks)) throw py::type_error("blocks must be a sequence of (point_index, representation)");
@@ -200,13 +212,19 @@ gets its Cartesian rows (eq. 3) instead.)");
 
   m.def(
       "feature_error",
-      [](py::handle f, py::handle fd, const Layout& layout) {
+      [](py::handle f, py::handle fd, const Layout& layout, py::handle wrap) {
         const CArray a = as_array(f, "f"), b = as_array(fd, "f_desired");
-        return feature_error(layout, vector(a, "f"), vector(b, "f_desired"));
+        return feature_error(layout, vector(a, "f"), vector(b, "f_desired"), angle_wrap_arg(wrap));
       },
-      py::arg("f"), py::arg("f_desired"), py::arg("layout"),
-      R"(Feature error f (-) f* (M,): plain difference, theta rows wrapped into (-pi, pi] (eq. 13);
-cylindrical rows (r - r*, r wrap(theta - theta*)).)");
+      py::arg("f"), py::arg("f_desired"), py::arg("layout"), py::arg("angle_wrap") = "consistent",
+      R"(Feature error f (-) f* (M,): plain difference; theta rows wrapped (eq. 13); cylindrical rows
+(r - r*, r wrap(theta - theta*)).
+
+angle_wrap="consistent" (default): the angle differences of all polar and cylindrical blocks
+are wrapped as one rotation, into (phi - pi, phi + pi] about their circular mean phi (in
+(-pi, pi]; blocks with r or r* = 0 take no part; a difference exactly at phi - pi becomes
+phi + pi); where the mean is undefined (resultant length below 1e-6) each keeps (-pi, pi].
+angle_wrap="per_point": each difference into (-pi, pi] on its own (an exact half-turn is +pi).)");
 
   m.def(
       "damped_pinv",
@@ -334,7 +352,8 @@ referenced; later updates never change them (they write into buffers no result h
   py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
 
 Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
-      max_linear_speed=inf, max_angular_speed=inf, camera=None, exact_diagnostics=False)
+      max_linear_speed=inf, max_angular_speed=inf, camera=None, angle_wrap="consistent",
+      exact_diagnostics=False)
   gain      gamma in (0, 1e250] (1/s), or an AdaptiveGain (gain as a function of the error norm)
   damping   lambda >= 0: 0 = Moore-Penrose, > 0 = damped least squares; the twist equals
             -gain * damped_pinv(jacobian, damping) @ error (to ~1e-10 relative) either way
@@ -345,11 +364,16 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
   exact_diagnostics  compute sigma_min / sigma_max every step by QR + SVD (~4 us)
   max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
             factor so that |T| and |w| stay within them (direction kept); inf = no limit
-  camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None)")
+  camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None
+  angle_wrap  "consistent" (default): the theta differences of one frame are wrapped as one
+            rotation about their circular mean (see feature_error), the mean kept on the
+            previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
+            forgets it); "per_point": eq. (13) point by point, no memory)")
       .def(py::init([](const Layout& layout, py::handle gain, py::handle damping, const std::string& jac,
                        py::handle polar_min_radius, bool diagnostics, py::handle max_linear_speed,
-                       py::handle max_angular_speed, py::handle camera, bool exact_diagnostics) {
+                       py::handle max_angular_speed, py::handle camera, py::handle angle_wrap, bool exact_diagnostics) {
              ServoOptions o;
+             o.angle_wrap = angle_wrap_arg(angle_wrap);
              set_gain(o, gain);
              o.damping = real(damping, "damping");
              o.jacobian = interaction(jac);
@@ -365,12 +389,14 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
            py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
            py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true,
            py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
-           py::arg("camera") = py::none(), py::arg("exact_diagnostics") = false)
+           py::arg("camera") = py::none(), py::arg("angle_wrap") = "consistent", py::arg("exact_diagnostics") = false)
       .def_static(
           "automatic_hybrid",
           [](py::handle n, py::handle gain, py::handle switch_radius, py::handle damping, const std::string& jac,
-             bool diagnostics, py::handle max_linear_speed, py::handle max_angular_speed, py::handle camera) {
+             bool diagnostics, py::handle max_linear_speed, py::handle max_angular_speed, py::handle camera,
+             py::handle angle_wrap) {
             ServoOptions o;
+            o.angle_wrap = angle_wrap_arg(angle_wrap);
             set_gain(o, gain);
             o.damping = real(damping, "damping");
             o.jacobian = interaction(jac);
@@ -388,7 +414,7 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
           py::arg("n_points"), py::arg("gain"), py::arg("switch_radius") = default_switch_radius,
           py::arg("damping") = 0.0, py::arg("jacobian") = "current", py::arg("diagnostics") = true,
           py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
-          py::arg("camera") = py::none(),
+          py::arg("camera") = py::none(), py::arg("angle_wrap") = "consistent",
           R"(Automatic hybrid: each point polar while it and its desired point lie at least switch_radius
 (normalised units) from the principal point, Cartesian otherwise, re-decided every step. It is
 Servo(Layout.polar(n_points), gain, polar_min_radius=switch_radius, ...); ServoResult.polar_fallbacks
@@ -444,11 +470,22 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
             o.damping = real(d, "damping");
             s.servo.set_options(o);
           })
+      .def_property(
+          "angle_wrap", [](const PyServo& s) { return angle_wrap_name(s.servo.options().angle_wrap); },
+          [](PyServo& s, py::handle w) {
+            ServoOptions o = s.servo.options();
+            o.angle_wrap = angle_wrap_arg(w);
+            s.servo.set_options(o);
+          },
+          "'consistent' or 'per_point' (see the class doc); setting it also forgets the previous frame.")
+      .def("reset", [](PyServo& s) { s.servo.reset(); },
+           "Forget the previous frame's angle-wrap branch (call it when a new servoing task starts).")
       .def_property_readonly("jacobian_mode", [](const PyServo& s) { return interaction_name(s.servo.options().jacobian); })
       .def_property_readonly("polar_min_radius", [](const PyServo& s) { return s.servo.options().polar_min_radius; })
       .def("__repr__", [](const PyServo& s) {
         const auto& o = s.servo.options();
         return "Servo(" + layout_repr(s.servo.layout()) + ", gain=" + std::string(py::repr(gain_of(o))) +
-               ", damping=" + std::to_string(o.damping) + ", jacobian='" + interaction_name(o.jacobian) + "')";
+               ", damping=" + std::to_string(o.damping) + ", jacobian='" + interaction_name(o.jacobian) +
+               "', angle_wrap='" + angle_wrap_name(o.angle_wrap) + "')";
       });
 }

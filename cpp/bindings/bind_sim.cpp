@@ -374,7 +374,8 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
       [](py::handle servo, const CameraModel& camera, const Target& target, py::handle start, py::handle goal,
           py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
-          bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain) {
+          bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain,
+          double standoff_ratio) {
         EpisodeOptions o;
         o.duration = duration;
         o.noise = noise;
@@ -388,6 +389,7 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
         o.depth_scale = depth_scale;
         o.boundary_margin = boundary_margin;
         o.boundary_gain = boundary_gain;
+        o.standoff_ratio = standoff_ratio;
         AnyServo sv = servo_copy(servo);
         if (!robot.is_none()) {
           if (!py::isinstance<Robot>(robot))
@@ -432,6 +434,6 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
       py::arg("robot") = py::none(), py::arg("duration") = 10.0, py::arg("noise") = 0.0, py::arg("latency") = 0,
       py::arg("depth") = "exact", py::arg("seed") = 0, py::arg("tolerance") = 1e-4, py::arg("max_depth_ratio") = 10.0,
       py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
-      py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1,
+      py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1, py::arg("standoff_ratio") = 0.05,
       "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
 }

@@ -90,6 +90,11 @@ inline void check_features(const Eigen::Ref<const Eigen::VectorXd>& f, const cha
       throw std::invalid_argument(std::string("ibvs: ") + name + "[" + std::to_string(i) + "] is not finite");
 }
 
+inline void check_angle_wrap(AngleWrap w) {
+  if (w != AngleWrap::consistent && w != AngleWrap::per_point)
+    throw std::invalid_argument("ibvs: angle_wrap must be consistent or per_point");
+}
+
 inline void check_nonnegative(double x, const char* name) {
   if (!(x >= 0.0) || !std::isfinite(x))
     throw std::invalid_argument(std::string("ibvs: ") + name + " must be finite and >= 0, got " + number(x));

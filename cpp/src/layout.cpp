@@ -175,18 +175,38 @@ void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
 }
 
 void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
-                   const Eigen::Ref<const Eigen::VectorXd>& f_desired, Eigen::Ref<Eigen::VectorXd> e) noexcept {
+                   const Eigen::Ref<const Eigen::VectorXd>& f_desired, Eigen::Ref<Eigen::VectorXd> e,
+                   AngleWrap wrap) noexcept {
+  // Pass 1: plain differences; angle rows hold their difference in (-pi, pi] (eq. 13),
+  // and the unit vectors of those with both radii > 0 are summed.
+  AngleResultant sum;
   Eigen::Index row = 0;
   for (const Block& b : layout.blocks()) {
     e(row) = f(row) - f_desired(row);
-    const double d = f(row + 1) - f_desired(row + 1);
-    if (b.representation == Representation::cylindrical) {
-      // r wrap(theta - theta*), theta recovered as (r theta) / r; 0 when either point is
-      // at the principal point (its angle is then taken to be the other's).
-      const double r = f(row), rd = f_desired(row);
-      e(row + 1) = r > 0.0 && rd > 0.0 ? r * wrap_angle(f(row + 1) / r - f_desired(row + 1) / rd) : 0.0;
+    if (b.representation == Representation::cartesian) {
+      e(row + 1) = f(row + 1) - f_desired(row + 1);
     } else {
-      e(row + 1) = b.representation == Representation::polar ? wrap_angle(d) : d;
+      // theta = (r theta) / r for a cylindrical block; its angle counts only when both radii are > 0
+      // (at the principal point the angle is taken to be the other point's: difference 0).
+      const double r = f(row), rd = f_desired(row);
+      const bool cyl = b.representation == Representation::cylindrical;
+      const bool both = r > 0.0 && rd > 0.0;
+      const double d = !both && cyl ? 0.0
+                       : cyl        ? wrap_angle(f(row + 1) / r - f_desired(row + 1) / rd)
+                                    : wrap_angle(f(row + 1) - f_desired(row + 1));
+      if (both && wrap == AngleWrap::consistent) sum.add(std::cos(d), std::sin(d));
+      e(row + 1) = d;
+    }
+    row += 2;
+  }
+  // Pass 2: the consistent wrap about the circular mean; cylindrical rows become arcs r d.
+  const bool about_mean = wrap == AngleWrap::consistent && sum.defined();
+  const double centre = sum.mean();
+  row = 0;
+  for (const Block& b : layout.blocks()) {
+    if (b.representation != Representation::cartesian) {
+      const double d = about_mean ? wrap_about(e(row + 1), centre) : e(row + 1);
+      e(row + 1) = b.representation == Representation::cylindrical ? f(row) * d : d;
     }
     row += 2;
   }
@@ -244,13 +264,14 @@ void check_feature_values(const Layout& layout, const Eigen::Ref<const Eigen::Ve
 }  // namespace
 
 Eigen::VectorXd feature_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
-                              const Eigen::Ref<const Eigen::VectorXd>& f_desired) {
+                              const Eigen::Ref<const Eigen::VectorXd>& f_desired, AngleWrap wrap) {
   detail::check_features(f, "f", layout.rows());
   detail::check_features(f_desired, "f_desired", layout.rows());
   check_feature_values(layout, f, "f");
   check_feature_values(layout, f_desired, "f_desired");
+  detail::check_angle_wrap(wrap);
   Eigen::VectorXd e(layout.rows());
-  stacked_error(layout, f, f_desired, e);
+  stacked_error(layout, f, f_desired, e, wrap);
   return e;
 }
 

@@ -14,6 +14,35 @@ namespace ibvs {
 namespace {
 
 
+// theta - theta* (both in (-pi, pi]) into (-pi, pi] (eq. 13, one turn at most),
+// then about the consistent-wrap centre unless that is NaN (angle_wrap.hpp).
+inline double wrap_difference(double d, double centre) noexcept {
+  if (d > pi) d -= 2.0 * pi;
+  else if (d <= -pi) d += 2.0 * pi;
+  return std::isnan(centre) ? d : wrap_about(d, centre);
+}
+
+// Sum of the unit vectors of the angle differences of the blocks that have an
+// angle this frame (polar blocks that do not fall back, cylindrical blocks with
+// both radii > 0), from the points' directions: (cos, sin)(theta - theta*) =
+// (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
+AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
+                               const Eigen::Ref<const Points>& uvd) noexcept {
+  AngleResultant sum;
+  for (const Block& b : layout.blocks()) {
+    if (b.representation == Representation::cartesian) continue;
+    const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+    const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
+    if (b.representation == Representation::polar
+            ? polar_falls_back(r2, polar_min_radius) || polar_falls_back(rd2, polar_min_radius)
+            : !(r2 > 0.0 && rd2 > 0.0))
+      continue;
+    const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
+    if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
+  }
+  return sum;
+}
+
 // Workspace for one row count: the assembled J and e, and the solver (see
 // solve.hpp for the sizes: Rows = 8 or 16, or Dynamic bounded by MaxRows).
 template <int Rows, int MaxRows = Rows>
@@ -45,13 +74,11 @@ struct Work {
   // at r = 0 takes the other point's direction (alpha = 0 there): its block is then
   // the Cartesian block in a rotated basis, so no fallback is needed.
   void put_cylindrical(Eigen::Index row, InteractionMatrix which, double u, double v, double r2, double z, double ud,
-                       double vd, double rd2, double zd) noexcept {
+                       double vd, double rd2, double zd, double centre) noexcept {
     const double r = std::sqrt(r2), rd = std::sqrt(rd2);
     double dth = 0.0;
     if (r2 > 0.0 && rd2 > 0.0) {
-      dth = std::atan2(v, u) - std::atan2(vd, ud);
-      if (dth > pi) dth -= 2.0 * pi;
-      else if (dth <= -pi) dth += 2.0 * pi;
+      dth = wrap_difference(std::atan2(v, u) - std::atan2(vd, ud), centre);
     }
     e(row) = r - rd;
     e(row + 1) = r * dth;
@@ -63,17 +90,18 @@ struct Work {
     put(row, which, cur, des);
   }
 
-  // Fills J and e for this frame; returns the number of polar fallbacks.
+  // Fills J and e for this frame; returns the number of polar fallbacks. Angle
+  // differences are wrapped about `centre` (NaN: per point, eq. 13).
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
-               const Eigen::Ref<const Eigen::VectorXd>& zd) noexcept {
+               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre) noexcept {
     int fallbacks = 0;
     Eigen::Index row = 0;
     for (const Block& b : layout.blocks()) {
       const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
       const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
       if (b.representation == Representation::cylindrical) {
-        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point));
+        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre);
         row += 2;
         continue;
       }
@@ -86,11 +114,7 @@ struct Work {
         // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
         const double r = std::sqrt(r2), rd = std::sqrt(rd2);
         e(row) = r - rd;
-        // Both angles lie in (-pi, pi], so one turn at most brings the difference into (-pi, pi].
-        double dth = std::atan2(v, u) - std::atan2(vd, ud);
-        if (dth > pi) dth -= 2.0 * pi;
-        else if (dth <= -pi) dth += 2.0 * pi;
-        e(row + 1) = dth;
+        e(row + 1) = wrap_difference(std::atan2(v, u) - std::atan2(vd, ud), centre);
         const auto cur = [&] { return polar_jacobian(r, u / r, v / r, z(b.point)); };
         const auto des = [&] { return polar_jacobian(rd, ud / rd, vd / rd, zd(b.point)); };
         put(row, o.jacobian, cur, des);
@@ -197,7 +221,8 @@ double ServoOutput::condition() const noexcept {
   return sigma_min_ > 0.0 ? sigma_max_ / sigma_min_ : std::numeric_limits<double>::infinity();
 }
 
-Servo::Servo(Layout layout, ServoOptions options) : layout_(std::move(layout)) {
+Servo::Servo(Layout layout, ServoOptions options)
+    : layout_(std::move(layout)), wrap_centre_(std::numeric_limits<double>::quiet_NaN()) {
   set_options(options);
   kernel_ = std::make_unique<Kernel>(layout_.rows());
 }
@@ -230,12 +255,16 @@ void Servo::validate(const ServoOptions& o) {
   if (o.jacobian != InteractionMatrix::current && o.jacobian != InteractionMatrix::desired &&
       o.jacobian != InteractionMatrix::mean)
     throw std::invalid_argument("ibvs: jacobian must be current, desired or mean");
+  detail::check_angle_wrap(o.angle_wrap);
 }
 
 void Servo::set_options(const ServoOptions& options) {
   validate(options);
+  if (options.angle_wrap != options_.angle_wrap) reset();
   options_ = options;
 }
+
+void Servo::reset() noexcept { wrap_centre_ = std::numeric_limits<double>::quiet_NaN(); }
 
 void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                      const Eigen::Ref<const Points>& uv_desired,
@@ -275,23 +304,29 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
           return detail::refuse(out);  // unreachable: the constructor always builds a kernel
         } else {
-          out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired);
-          Twist x;
-          detail::Spectrum spectrum;
-          w.solve(options_, m, x, spectrum);
-          if (spectrum.known) out.set_singular_values(spectrum.smin, spectrum.smax);
-          else if (options_.diagnostics) out.set_gram(w.solver.N0);  // computed when read
-          else out.clear_singular_values();
-          out.error = w.e.head(m);
-          out.error_norm = out.error.norm();
-          out.jacobian = w.J.topRows(m);
-          const AdaptiveGain& ag = options_.adaptive_gain;
-          out.gain = ag.enabled() ? ag(out.error_norm) : options_.gain;
-          out.velocity = -out.gain * x;
-          out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);
-          out.saturated = out.saturation_scale < 1.0;
-          if (out.saturated) out.velocity *= out.saturation_scale;
-          return out.status = spectrum.singular ? Status::singular : Status::ok;
+        // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
+        double centre = std::numeric_limits<double>::quiet_NaN();
+        if (options_.angle_wrap == AngleWrap::consistent) {
+          const AngleResultant sum = angle_resultant(layout_, options_.polar_min_radius, uv, uv_desired);
+          if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
+        }
+        out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired, centre);
+        Twist x;
+        detail::Spectrum spectrum;
+        w.solve(options_, m, x, spectrum);
+        if (spectrum.known) out.set_singular_values(spectrum.smin, spectrum.smax);
+        else if (options_.diagnostics) out.set_gram(w.solver.N0);  // computed when read
+        else out.clear_singular_values();
+        out.error = w.e.head(m);
+        out.error_norm = out.error.norm();
+        out.jacobian = w.J.topRows(m);
+        const AdaptiveGain& ag = options_.adaptive_gain;
+        out.gain = ag.enabled() ? ag(out.error_norm) : options_.gain;
+        out.velocity = -out.gain * x;
+        out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);
+        out.saturated = out.saturation_scale < 1.0;
+        if (out.saturated) out.velocity *= out.saturation_scale;
+        return out.status = spectrum.singular ? Status::singular : Status::ok;
         }
       },
       kernel_->work);

@@ -46,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", type=a.out_dir, default=Path("ibvs-results"),
                    help="output directory (default ./ibvs-results; created if missing)")
     r.add_argument("--quick", action="store_true", help="small, fast figures (for CI); the simulations are the same")
+    _add_angle_wrap(r, "consistent")
 
     cases = sorted({c for w in CASES.values() for c in w})
     one = sub.add_parser("run", help="simulate one episode and print its status and metrics",
@@ -73,6 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="episode length in seconds, at most 3600 (default per world)")
     one.add_argument("--depth", choices=["exact", "pose", "desired", "estimated"], help=DEPTH_HELP)
     one.add_argument("--tolerance", type=a.number(0, 1e6), default=1e-5, help=TOLERANCE_HELP)
+    _add_angle_wrap(one, "consistent")
 
     _add_sweep_parser(sub)
 
@@ -80,6 +82,13 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Time the control step through the bindings next to a numpy reference.")
     b.add_argument("args", nargs="*", help="options of python -m ibvs.bench (see python -m ibvs.bench --help)")
     return p
+
+
+def _add_angle_wrap(parser, default) -> None:
+    parser.add_argument("--angle-wrap", choices=["consistent", "per_point"], default=default,
+                        help="theta errors wrapped as one rotation about their circular mean or each into "
+                             "(-pi, pi] on its own, eq. (13) (default "
+                             + (default or "the scenario's, else consistent") + ")")
 
 
 def _range(text: str) -> tuple[str, tuple[float, float]]:
@@ -151,6 +160,7 @@ def _add_sweep_parser(sub) -> None:
     w.add_argument("--boundary-margin", type=a.number(0, 1e6),
                    help="image-boundary potential margin (measurement units; 0 = off)")
     w.add_argument("--boundary-gain", type=a.number(0, 1e6), help="image-boundary potential gain")
+    _add_angle_wrap(w, None)
     w.add_argument("--jobs", type=a.number(1, MAX_JOBS, integer=True), help="local worker processes (default: cores)")
     w.add_argument("--batch", type=a.number(1, MAX_EPISODES, integer=True), help="episodes per task")
     w.add_argument("--scheduler", metavar="ADDRESS",
@@ -178,7 +188,8 @@ def _sweep(args, parser) -> int:
     if args.range and args.grid:
         a.fail(prog, "--range and --grid cannot be combined")
     settings = dict(gain=args.gain, duration=args.duration, depth=args.depth, tolerance=args.tolerance,
-                    boundary_margin=args.boundary_margin, boundary_gain=args.boundary_gain)
+                    boundary_margin=args.boundary_margin, boundary_gain=args.boundary_gain,
+                    angle_wrap=args.angle_wrap)
     try:  # everything is checked here, before any episode runs
         setup, options = sw.resolve(args.scenario, world=args.world, ranges=dict(args.range) or None, **settings)
         schemes = args.schemes or options.get("schemes")
@@ -239,14 +250,16 @@ def _run(args, parser) -> int:
         a.fail(prog, "argument --depth: pose needs a planar target")
     case_obj, result = reproduce.run_one(args.world, case, args.scheme, duration=duration, noise=args.noise,
                                          latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
-                                         tolerance=args.tolerance, case_object=c)
-    row = reproduce.summarise(args.world, case, args.scheme, result)
+                                         tolerance=args.tolerance, case_object=c, angle_wrap=args.angle_wrap)
+    row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
     from .schemes import TITLES
 
-    title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}"
+    wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
+    title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}{wrap}"
     print(title)
-    for name, value in zip(reproduce.Row.HEADERS[3:-1], row.cells()[3:-1]):
-        print(f"  {name:18s} {value}")
+    for name, value in zip(reproduce.Row.HEADERS[3:], row.cells()[3:]):
+        if name != "paper":
+            print(f"  {name:18s} {value}")
     if args.plot:
         from . import plots
 
@@ -275,7 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "reproduce":
         from .reproduce import reproduce
 
-        reproduce(args.out, quick=args.quick)
+        reproduce(args.out, quick=args.quick, angle_wrap=args.angle_wrap)
         return 0
     if args.command == "run":
         return _run(args, parser)

@@ -56,8 +56,11 @@ def features(uv: _ArrayLike, layout: Layout) -> _FloatArray:
 def jacobian(uv: _ArrayLike, depth: _Depth, layout: Layout, polar_min_radius: float = 1e-3) -> _FloatArray:
     """(M, 6) stacked image Jacobian."""
 
-def feature_error(f: _ArrayLike, f_desired: _ArrayLike, layout: Layout) -> _FloatArray:
-    """(M,) f (-) f*, theta rows wrapped into (-pi, pi]."""
+def feature_error(
+    f: _ArrayLike, f_desired: _ArrayLike, layout: Layout, angle_wrap: str = "consistent"
+) -> _FloatArray:
+    """(M,) f (-) f*, theta rows wrapped as one rotation ("consistent") or each into (-pi, pi]
+    ("per_point")."""
 
 def damped_pinv(J: _ArrayLike, damping: float = 0.0) -> _FloatArray:
     """(6, M) pseudoinverse of J (M, 6)."""
@@ -233,6 +236,7 @@ class Servo:
     damping: float
     max_linear_speed: float
     max_angular_speed: float
+    angle_wrap: str
     def __init__(
         self,
         layout: Layout,
@@ -244,6 +248,7 @@ class Servo:
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
         camera: CameraModel | None = None,
+        angle_wrap: str = "consistent",
         exact_diagnostics: bool = False,
     ) -> None: ...
     @staticmethod
@@ -257,6 +262,7 @@ class Servo:
         max_linear_speed: float = ...,
         max_angular_speed: float = ...,
         camera: CameraModel | None = None,
+        angle_wrap: str = "consistent",
     ) -> Servo: ...
     def update(
         self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
@@ -266,6 +272,8 @@ class Servo:
         self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult:
         """pixels, pixels_desired (N, 2) or (N, 1, 2) as measured; normalised with the servo's camera."""
+    def reset(self) -> None:
+        """Forget the previous frame's angle-wrap branch."""
     @property
     def camera(self) -> CameraModel | None: ...
     @property
@@ -497,5 +505,6 @@ class sim:
         depth_scale: float = 1.0,
         boundary_margin: float = 0.0,
         boundary_gain: float = 0.1,
+        standoff_ratio: float = 0.05,
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""

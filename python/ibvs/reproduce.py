@@ -1,6 +1,6 @@
 """Reproduce the paper's experiments: every case run, figures drawn, findings tabulated.
 
-    ibvs reproduce [--out DIR] [--quick]
+    ibvs reproduce [--out DIR] [--quick] [--angle-wrap consistent|per_point]
 
 Free-flying camera (Section III-A, Table I; Figs. 1-3 and 5): x-translation 0.2, z-rotation
 pi and general motion, each with Cartesian IBVS, IBVS-P, the per-point hybrid (Cartesian for
@@ -20,7 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+import ibvs
 from ibvs import schemes, sim
+from ibvs.scenario import ANGLE_WRAPS  # the angle wraps of ibvs.Servo
 
 #: The paper's four schemes (factories in ibvs.schemes) and their titles in the figures.
 SCHEMES = schemes.PAPER
@@ -61,6 +63,12 @@ DEPTH = {"free": "exact", "gantry": "pose"}
 TOLERANCE = 1e-5
 
 
+def wrap_label(scheme: str, angle_wrap: str) -> str:
+    """The angle wrap a scheme runs with, as the summary and the figure titles state it ("-" for
+    Cartesian IBVS, which has no angle rows, and the partitioned law, which is not an ibvs.Servo)."""
+    return "-" if scheme in ("cartesian", "partitioned") else angle_wrap.replace("_", "-")
+
+
 @dataclass
 class Row:
     """One line of the summary."""
@@ -80,14 +88,16 @@ class Row:
     final_r_deg: float
     joint_limit: str
     figure: str
+    angle_wrap: str = "consistent"
 
     COLUMNS = (
         "world", "case", "scheme", "status", "event", "frames", "time_s", "retreat_m", "path_m",
-        "peak_v", "peak_w", "final_t_mm", "final_r_deg", "joint_limit", "figure",
+        "peak_v", "peak_w", "final_t_mm", "final_r_deg", "joint_limit", "figure", "angle_wrap",
     )
     HEADERS = (
         "world", "case", "scheme", "status", "event", "frames to converge", "time (s)", "retreat (m)", "path (m)",
         "peak ‖v‖ (m/s)", "peak ‖ω‖ (rad/s)", "final Δp (mm)", "final Δθ (°)", "joint limit", "paper",
+        "angle wrap",
     )
 
     def cells(self) -> list[str]:
@@ -107,18 +117,23 @@ def make_case(world: str, case: str):
 
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
             latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
-            tolerance: float = TOLERANCE, case_object=None):
+            tolerance: float = TOLERANCE, case_object=None, angle_wrap: str = "consistent"):
     """Simulate one (world, case, scheme) (scheme: any name in ibvs.schemes.SCHEMES); returns
-    (case object, sim.Result). case_object replaces the named case (e.g. another angle)."""
+    (case object, sim.Result). case_object replaces the named case (e.g. another angle);
+    angle_wrap is set on the scheme's ibvs.Servo."""
+    if angle_wrap not in ANGLE_WRAPS:
+        raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
     c = case_object if case_object is not None else make_case(world, case)
     servo = schemes.make(scheme, GAIN[world] if gain is None else gain, len(c.target))
+    if isinstance(servo, ibvs.Servo):
+        servo.angle_wrap = angle_wrap
     result = sim.run(servo, c.camera, c.target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
                      depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance)
     return c, result
 
 
-def summarise(world: str, case: str, scheme: str, result) -> Row:
+def summarise(world: str, case: str, scheme: str, result, angle_wrap: str = "consistent") -> Row:
     h, s, m = result.history, result.status, result.metrics
     ok = np.isfinite(h.twist).all(axis=1)
     tw = h.twist[ok]
@@ -132,7 +147,7 @@ def summarise(world: str, case: str, scheme: str, result) -> Row:
         float(np.linalg.norm(tw[:, 3:], axis=1).max()) if len(tw) else float("nan"),
         1e3 * m.final_translation_error, math.degrees(m.final_rotation_error),
         f"q{s.joint + 1}" if s.outcome == "joint_limit" else "no" if world == "gantry" else "",
-        FIGURES.get((world, case, scheme), ""),
+        FIGURES.get((world, case, scheme), ""), wrap_label(scheme, angle_wrap),
     )
 
 
@@ -161,7 +176,8 @@ def claims(rows: list[Row]) -> list[tuple[str, bool]]:
     return out
 
 
-def write_summary(rows: list[Row], checks: list[tuple[str, bool]], out: Path, fig4: dict) -> str:
+def write_summary(rows: list[Row], checks: list[tuple[str, bool]], out: Path, fig4: dict,
+                  angle_wrap: str = "consistent") -> str:
     with open(out / "summary.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(Row.COLUMNS)
@@ -170,7 +186,8 @@ def write_summary(rows: list[Row], checks: list[tuple[str, bool]], out: Path, fi
     lines = ["| " + " | ".join(Row.HEADERS) + " |", "|" + "---|" * len(Row.HEADERS)]
     lines += ["| " + " | ".join(row.cells()) + " |" for row in rows]
     table = "\n".join(lines)
-    md = ["# ibvs: reproduction of Corke, Spindler & Chaumette (IROS 2009)", "", table, "", "## Paper claims", ""]
+    md = ["# ibvs: reproduction of Corke, Spindler & Chaumette (IROS 2009)", "", wrap_sentence(angle_wrap),
+          "", table, "", "## Paper claims", ""]
     md += [f"- [{'x' if ok else ' '}] {text}" for text, ok in checks]
     md += ["", "## Fig. 4", ""]
     md += [f"- {name}: {'stays inside' if ok else 'leaves'} the square image" for name, ok in fig4.items()]
@@ -178,9 +195,21 @@ def write_summary(rows: list[Row], checks: list[tuple[str, bool]], out: Path, fi
     return table
 
 
-def reproduce(out: Path, quick: bool = False, stream=sys.stdout) -> tuple[list[Row], list[tuple[str, bool]]]:
+def wrap_sentence(angle_wrap: str) -> str:
+    """Which angle wrap the figures use, in words (summary.md and the printed summary)."""
+    how = ("consistent: each figure's theta errors wrapped as one rotation, about their circular mean"
+           if angle_wrap == "consistent"
+           else "per-point: each theta error wrapped into (-π, π] on its own, eq. (13)")
+    return (f"Angle wrap of every figure with polar rows (polar, hybrid, stacked; column 'angle wrap'): "
+            f"{how}. Cartesian IBVS has no angle rows.")
+
+
+def reproduce(out: Path, quick: bool = False, stream=sys.stdout,
+              angle_wrap: str = "consistent") -> tuple[list[Row], list[tuple[str, bool]]]:
     from . import plots
 
+    if angle_wrap not in ANGLE_WRAPS:
+        raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
     out.mkdir(parents=True, exist_ok=True)
     plan = [(w, c, s) for w in PAPER_CASES for c in PAPER_CASES[w] for s in SCHEMES]
     # A whole episode simulates in milliseconds; the time goes into drawing, so --quick draws smaller.
@@ -191,18 +220,19 @@ def reproduce(out: Path, quick: bool = False, stream=sys.stdout) -> tuple[list[R
     fig4 = {name: inside for name, (_, inside) in plots.image_limits_paths().items()}
     print(f"[ 0/{len(plan)}] Fig. 4 image-plane limits -> fig4_image_limits.png", file=stream, flush=True)
     for k, (world, case, scheme) in enumerate(plan, 1):
-        c, result = run_one(world, case, scheme)
-        row = summarise(world, case, scheme, result)
+        c, result = run_one(world, case, scheme, angle_wrap=angle_wrap)
+        row = summarise(world, case, scheme, result, angle_wrap)
         rows.append(row)
         name = f"{world}_{case}_{scheme}.png"
         fig = FIGURES.get((world, case, scheme))
-        title = f"{fig + ': ' if fig else ''}{c.description}, {SCHEME_TITLES[scheme]}"
+        wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
+        title = f"{fig + ': ' if fig else ''}{c.description}, {SCHEME_TITLES[scheme]}{wrap}"
         plots.episode(result, title=title).savefig(out / name, dpi=dpi)
         print(f"[{k:2d}/{len(plan)}] {world:6s} {case:13s} {scheme:9s} {row.status:13s} {row.event:9s}"
               f" -> {name}  ({time.perf_counter() - t0:.1f} s)", file=stream, flush=True)
     checks = claims(rows)
-    table = write_summary(rows, checks, out, fig4)
-    print("\n" + table + "\n", file=stream)
+    table = write_summary(rows, checks, out, fig4, angle_wrap)
+    print("\n" + wrap_sentence(angle_wrap) + "\n\n" + table + "\n", file=stream)
     for text, ok in checks:
         print(f"[{'ok' if ok else 'NOT REPRODUCED'}] {text}", file=stream)
     print(f"\nfigures, summary.md and summary.csv in {out}", file=stream)

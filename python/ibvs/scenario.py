@@ -49,7 +49,7 @@ import numpy as np
 from . import sim
 from .sim.poses import _rotation
 
-__all__ = ["DEPTH_MODES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
+__all__ = ["ANGLE_WRAPS", "DEPTH_MODES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
 
 #: The parameters of an episode's start set-up, in the order they are drawn.
 PARAMETERS = ("rz_deg", "tilt_deg", "tilt_dir_deg", "tx", "ty", "tz", "noise", "depth_scale", "latency")
@@ -61,6 +61,8 @@ LIMITS = {"rz_deg": (-360.0, 360.0), "tilt_deg": (0.0, 180.0), "tilt_dir_deg": (
           "tx": (-1e3, 1e3), "ty": (-1e3, 1e3), "tz": (-1e3, 1e3), "noise": (0.0, 1e4),
           "depth_scale": (1e-3, 1e3), "latency": (0, 1000)}
 DEPTH_MODES = ("exact", "pose", "desired", "estimated")
+#: The angle wraps of ibvs.Servo (its angle_wrap option).
+ANGLE_WRAPS = ("consistent", "per_point")
 #: Longest episode (s) and largest gain (1/s) a scenario may ask for.
 MAX_DURATION = 3600.0
 MAX_GAIN = 1e4
@@ -134,6 +136,8 @@ class Scenario:
         rz_deg/tilt_deg/tilt_dir_deg ranges.
     gain (1/s), duration (s), depth (DEPTH_MODES), tolerance, boundary_margin, boundary_gain:
         as in ibvs.sim.run.
+    angle_wrap: ANGLE_WRAPS, set on every ibvs.Servo a scheme builds ("consistent": the theta
+        errors of a frame wrapped as one rotation; "per_point": eq. 13 point by point).
     """
 
     camera: Any
@@ -150,6 +154,7 @@ class Scenario:
     tolerance: float = 1e-5
     boundary_margin: float = 0.0
     boundary_gain: float = 0.1
+    angle_wrap: str = "consistent"
 
     def replace(self, **changes) -> "Scenario":
         """A copy with some fields changed (None values are ignored); ranges are merged."""
@@ -196,6 +201,8 @@ class Scenario:
         _number(self.boundary_gain, "boundary_gain", 0.0, 1e6)
         if self.depth not in DEPTH_MODES:
             raise ValueError(f"depth must be one of {', '.join(DEPTH_MODES)}, got {self.depth!r}")
+        if self.angle_wrap not in ANGLE_WRAPS:
+            raise ValueError(f"angle_wrap must be one of {', '.join(ANGLE_WRAPS)}, got {self.angle_wrap!r}")
         if self.depth == "pose" and not self.target.planar:
             raise ValueError('depth: "pose" needs a planar target (a pose estimate of coplanar points)')
         hi_latency = self.ranges.get("latency", (0, 0))[1]
@@ -269,7 +276,7 @@ class Scenario:
     def settings(self) -> dict:
         return {"gain": float(self.gain), "duration": float(self.duration), "depth": self.depth,
                 "tolerance": float(self.tolerance), "boundary_margin": float(self.boundary_margin),
-                "boundary_gain": float(self.boundary_gain)}
+                "boundary_gain": float(self.boundary_gain), "angle_wrap": self.angle_wrap}
 
     def key(self) -> str:
         """Hash of everything that determines the episodes (not the name)."""
@@ -478,7 +485,7 @@ def load(path) -> tuple[Scenario, dict]:
             v = (v, v)
         ranges[k] = tuple(v) if isinstance(v, list) else v
     control = dict(doc.get("control", {}))
-    fields = ("gain", "duration", "depth", "tolerance", "boundary_margin", "boundary_gain")
+    fields = ("gain", "duration", "depth", "tolerance", "boundary_margin", "boundary_gain", "angle_wrap")
     _keys(control, fields, f"{where} [control]")
     name = doc.get("name", path.stem)
     try:

@@ -28,7 +28,8 @@ stops the workers at once; every row finished before it is in the file.
 Schemes: SCHEMES (ibvs.schemes) maps a name to a factory(gain, n_points) -> servo (an
 ibvs.Servo or an ibvs.PartitionedServo: whatever ibvs.sim.run accepts). Add more with
 register_scheme(); for process pools the factory must be picklable (a module-level function
-or functools.partial of one).
+or functools.partial of one). The scenario's angle_wrap ("consistent", the default, or
+"per_point") is set on every ibvs.Servo a factory returns; each row records it.
 """
 
 from __future__ import annotations
@@ -45,6 +46,8 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
+
+import ibvs
 
 from . import schemes as _schemes
 from . import sim
@@ -92,12 +95,13 @@ def register_scheme(name: str, factory: Callable[..., Any], *, replace: bool = F
 
 #: Columns of the CSV, in order.
 COLUMNS = (
-    "id", "config", "index", "scenario", "scheme", *PARAMETERS, "depth", "outcome", "frame", "point", "joint",
+    "id", "config", "index", "scenario", "scheme", *PARAMETERS, "depth", "angle_wrap", "outcome", "frame",
+    "point", "joint",
     "frames_to_converge", "time_to_converge", "camera_retreat", "path_length", "peak_linear_speed",
     "peak_angular_speed", "final_translation_error", "final_rotation_error",
 )
 _INT = {"index", "latency", "frame", "point", "joint", "frames_to_converge"}
-_STR = {"id", "config", "scenario", "scheme", "depth", "outcome"}
+_STR = {"id", "config", "scenario", "scheme", "depth", "angle_wrap", "outcome"}
 #: Most episodes and local worker processes a sweep may ask for.
 MAX_EPISODES = 10**6
 MAX_JOBS = 256
@@ -215,12 +219,14 @@ def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict]
     config = spec.config()
     row = {"id": episode_id(config, index, scheme), "config": config, "index": int(index), "scenario": setup.name,
            "scheme": scheme, **{k: (int(p[k]) if k in _INT else float(p[k])) for k in PARAMETERS},
-           "depth": setup.depth}
+           "depth": setup.depth, "angle_wrap": setup.angle_wrap}
     start = setup.start(p)
     if start is None:
         return {**row, "outcome": "invalid_start", "frame": -1, "point": -1, "joint": -1, "frames_to_converge": -1,
                 **{k: math.nan for k in COLUMNS[COLUMNS.index("time_to_converge"):]}}
     servo = _schemes.make(factory or scheme, setup.gain, len(setup.target))
+    if isinstance(servo, ibvs.Servo):
+        servo.angle_wrap = setup.angle_wrap
     # The noise seed is the episode's, shared by every scheme.
     noise_seed = int(np.random.default_rng([int(spec.seed), int(index), 1]).integers(0, 2**63))
     r = sim.run(servo, setup.camera, setup.target, start, setup.goal_for_run(), robot=setup.robot,
@@ -383,7 +389,8 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
 
     scenario: a Scenario, a built-in name ("free", "gantry"), a TOML file (str or Path ending
     in .toml), or None (world, default "free"). ranges and settings (gain, duration, depth,
-    tolerance, boundary_margin, boundary_gain; None = the scenario's) override the scenario's."""
+    tolerance, boundary_margin, boundary_gain, angle_wrap; None = the scenario's) override the
+    scenario's."""
     options: dict = {}
     if scenario is not None and world is not None:
         raise ValueError("world and scenario: give one or the other")
@@ -417,6 +424,7 @@ def sweep(
     tolerance: Optional[float] = None,
     boundary_margin: Optional[float] = None,
     boundary_gain: Optional[float] = None,
+    angle_wrap: Optional[str] = None,
     jobs: Optional[int] = None,
     batch: Optional[int] = None,
     scheduler: Any = None,
@@ -435,6 +443,8 @@ def sweep(
     grid: {parameter: values}: every combination instead of random samples.
     gain, duration, depth, tolerance, boundary_margin, boundary_gain: override the scenario's
         control settings (see ibvs.sim.run).
+    angle_wrap: "consistent" or "per_point", set on every ibvs.Servo the schemes build
+        (default: the scenario's, "consistent" unless it says otherwise).
     jobs: local worker processes (default: os.cpu_count(); 1 = in this process).
     batch: episodes per task (default: about 4 tasks per worker, at most 256).
     scheduler: a Dask scheduler address or a dask.distributed Client: run there instead.
@@ -443,7 +453,8 @@ def sweep(
     limit: run at most this many new episodes (then stop, as if interrupted).
     """
     setup, options = resolve(scenario, world=world, ranges=ranges, gain=gain, duration=duration, depth=depth,
-                             tolerance=tolerance, boundary_margin=boundary_margin, boundary_gain=boundary_gain)
+                             tolerance=tolerance, boundary_margin=boundary_margin,
+                             boundary_gain=boundary_gain, angle_wrap=angle_wrap)
     schemes = schemes if schemes is not None else options.get("schemes")
     spec = SweepSpec(scenario=setup, seed=seed if seed is not None else options.get("seed", 0),
                      episodes=episodes if episodes is not None else options.get("episodes", 100),

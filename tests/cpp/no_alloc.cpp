@@ -277,6 +277,9 @@ void run_tests() {
           o.jacobian = mode;
           o.diagnostics = diag > 0;
           o.exact_diagnostics = diag == 2;
+          // Both angle wraps: the consistent one (default; its circular mean and the
+          // frame-to-frame centre) and eq. (13) point by point.
+          o.angle_wrap = diag ? AngleWrap::consistent : AngleWrap::per_point;
           if (diag) {  // adaptive gain and saturation on the hot path as well
             o.adaptive_gain = {2.0, 0.5, 10.0};
             o.max_linear_speed = 0.01;
@@ -304,6 +307,8 @@ void run_tests() {
           }
           const Status st_half = servo.update(half_turn, out);
           sigma += out.sigma_min();
+          servo.reset();
+          st = servo.update(in, out);
           in.depth(0) = -1.0;  // the invalid-input path must not allocate either
           const Status bad = servo.update(in, out);
           Eigen::internal::set_is_malloc_allowed(true);

@@ -155,7 +155,8 @@ void principal_point() {
         MatrixX6(cartesian_jacobian(0, 0, 2.0)));
 }
 
-// velocity == -gain pinv(J) e with J the rows of the error (alpha = wrap(theta - theta*)).
+// velocity == -gain pinv(J) e with J the rows of the error (alpha = wrap(theta - theta*)),
+// under the per-point wrap of the reference below (the consistent wrap: test_angle_wrap.cpp).
 void law_matches_pinv() {
   std::mt19937_64 rng(ibvs_test::seed + 1);
   std::uniform_real_distribution<double> c(-0.3, 0.3), d(0.5, 3.0);
@@ -167,6 +168,7 @@ void law_matches_pinv() {
         o.gain = 0.7;
         o.damping = lambda;
         o.jacobian = mode;
+        o.angle_wrap = AngleWrap::per_point;
         Servo servo(L, o);
         ServoOutput out(L);
         ServoInput in(L);

@@ -141,21 +141,27 @@ void events_are_reported() {
   r = run_episode(servo(Layout::cartesian(4)), cam, big, start, Pose::Identity(), opts(20, 1e-4));
   CHECK(r.status.outcome == Outcome::converged);
 
-  // Behind the camera: with 20 frames of latency the controller keeps sending
-  // its first large command towards a close goal and the camera passes through
-  // the tilted target; a huge field of view so that no point leaves the image first.
+  // Through the target: with 20 frames of latency the controller keeps sending its
+  // first large command towards a close goal and the camera goes through the tilted
+  // plate (a collision); a huge field of view so that no point leaves the image first.
   const Target tilted{Target::paper().points, make_pose(0, 0, 3, -0.3, 0, 0)};
   const Pose goal = make_pose(0, 0, 2.4, 0, 0, 0);
   EpisodeOptions ol = opts(10, 1e-4);
   ol.latency = 20;
   r = run_episode(servo(Layout::cartesian(4), 4.0), CameraModel::normalized(1e3), tilted, Pose::Identity(), goal, ol);
+  CHECK(r.status.outcome == Outcome::collision && r.status.frame > 0);
+  // Behind the camera: the same with a non-planar target (no faces) and no standoff.
+  Target bumpy = tilted;
+  bumpy.points(2, 0) = 0.01;
+  ol.standoff_ratio = 0.0;
+  r = run_episode(servo(Layout::cartesian(4), 4.0), CameraModel::normalized(1e3), bumpy, Pose::Identity(), goal, ol);
   CHECK(r.status.outcome == Outcome::behind_camera);
   CHECK(r.status.point >= 0 && r.status.point < 4);
   {  // the reported point is indeed at or behind the camera plane at the reported frame, and was not before
     const auto depth_at = [&](int k, int i) {
       Pose T;
       for (int j = 0; j < 16; ++j) T(j / 4, j % 4) = r.history.pose(k, j);
-      return (se3_inverse(T) * tilted.pose * tilted.points.col(i).homogeneous())(2);
+      return (se3_inverse(T) * bumpy.pose * bumpy.points.col(i).homogeneous())(2);
     };
     CHECK(depth_at(r.status.frame, r.status.point) < 1e-3);
     for (int i = 0; i < 4; ++i) CHECK(depth_at(r.status.frame - 1, i) > 1e-3);
@@ -168,6 +174,71 @@ void events_are_reported() {
   Joints outside = gantry_start();
   outside(2) = 1.0;
   CHECK_THROWS(run_episode(servo(Layout::polar(4)), CameraModel::afma6(), gantry_target(g), g, outside, gantry_goal()));
+}
+
+Pose pose_at(const EpisodeResult& r, int k) {
+  Pose T;
+  for (int j = 0; j < 16; ++j) T(j / 4, j % 4) = r.history.pose(k, j);
+  return T;
+}
+
+// Target faces: constructed cases of target_backside and collision; never on the paper's cases.
+void target_faces() {
+  const CameraModel cam = CameraModel::normalized(0.3);
+  // A camera that starts behind the plate, looking back at it: target_backside at frame 0.
+  Pose behind = make_pose(0, 0, 6, 0, pi, 0);  // at z = 6, optical axis along -z: sees the points (depth 3)
+  auto r = run_episode(servo(Layout::cartesian(4)), cam, Target::paper(), behind, Pose::Identity(), opts(5, 1e-4));
+  CHECK(r.status.outcome == Outcome::target_backside && r.status.frame == 0);
+  // Round the plate's edge in one frame (issue 11's six points, IBVS-P): target_backside at frame 1,
+  // the camera centre behind the plane and the crossing outside the plate's disc.
+  Eigen::Matrix3Xd six(3, 6);
+  for (int i = 0; i < 6; ++i) six.col(i) << 0.04 * std::cos(pi * i / 3), 0.04 * std::sin(pi * i / 3), 0.0;
+  const Target plate{six, make_pose(0, 0, 0.5, 0, 0, 0)};
+  const Pose start = make_pose(-0.012, 0.031, -0.097, -0.134, 0.124, 2 * pi / 3);
+  ServoOptions so;
+  so.gain = 1.0;
+  so.damping = 0.01;
+  for (const Layout& L : {Layout::polar(6), Layout::stacked(6)}) {
+    r = run_episode(Servo(L, so), CameraModel::normalized(0.3, 30.0), plate, start, Pose::Identity(), opts(30, 1e-4));
+    CHECK(r.status.outcome == Outcome::target_backside && r.status.frame == 1);
+    const Eigen::Vector3d c0 = pose_at(r, 0).col(3).head<3>(), c1 = pose_at(r, 1).col(3).head<3>();
+    CHECK(c0(2) < 0.5 && c1(2) > 0.5);
+    const Eigen::Vector3d x = c0 + (0.5 - c0(2)) / (c1(2) - c0(2)) * (c1 - c0);
+    CHECK(x.head<2>().norm() > 0.04);
+  }
+  r = run_episode(Servo(Layout::cartesian(6), so), CameraModel::normalized(0.3, 30.0), plate, start, Pose::Identity(),
+                  opts(30, 1e-4));
+  CHECK(r.status.outcome == Outcome::converged);
+  // The standoff: a goal 0.5 m from the paper's plate is reached with the default 5 % of 0.5 m
+  // and ends as a collision when the standoff is larger than the goal's own distance.
+  const Pose near_goal = make_pose(0, 0, 2.5, 0, 0, 0);
+  EpisodeOptions o = opts(20, 1e-4);
+  r = run_episode(servo(Layout::cartesian(4)), CameraModel::normalized(1.0), Target::paper(), Pose::Identity(), near_goal, o);
+  CHECK(r.status.outcome == Outcome::converged);
+  o.standoff_ratio = 1.2;  // 0.6 m
+  r = run_episode(servo(Layout::cartesian(4)), CameraModel::normalized(1.0), Target::paper(), Pose::Identity(), near_goal, o);
+  CHECK(r.status.outcome == Outcome::collision && r.status.point == -1);
+  CHECK_NEAR(3.0 - pose_at(r, r.status.frame)(2, 3), 0.6, 0.02);  // stopped at the standoff
+  // A non-planar target: the standoff around each point (the point is reported).
+  Target bumpy = Target::paper();
+  bumpy.points(2, 2) = 0.05;
+  r = run_episode(servo(Layout::cartesian(4)), CameraModel::normalized(1.0), bumpy, Pose::Identity(), near_goal, o);
+  CHECK(r.status.outcome == Outcome::collision && r.status.point >= 0);
+  // Bad option.
+  o.standoff_ratio = -1.0;
+  CHECK_THROWS(run_episode(servo(Layout::cartesian(4)), cam, Target::paper(), Pose::Identity(), near_goal, o));
+  // The paper's cases, every scheme: never a face event.
+  const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
+                       {3, Representation::polar}});
+  for (const Layout& L : {Layout::cartesian(4), Layout::polar(4), hybrid, Layout::stacked(4)}) {
+    for (const Pose& s : {half_turn_z(), x_translation(), general_motion()}) {
+      r = run_episode(servo(L), cam, Target::paper(), s, Pose::Identity(), opts(30, 1e-5));
+      CHECK(r.status.outcome != Outcome::target_backside && r.status.outcome != Outcome::collision);
+    }
+    const Gantry g = Gantry::afma6();
+    r = run_episode(servo(L, 2.0), CameraModel::afma6(), gantry_target(g), g, gantry_start(), gantry_goal(), opts(15, 1e-5));
+    CHECK(r.status.outcome == Outcome::converged);
+  }
 }
 
 void noise_latency_depth_modes() {
@@ -276,6 +347,7 @@ void run_tests() {
   general_motion_all_converge();
   gantry_general_motion();
   events_are_reported();
+  target_faces();
   noise_latency_depth_modes();
   partitioned_episodes();
   timing();

@@ -62,6 +62,20 @@ def test_run_prints_status_and_saves_a_figure(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+def test_run_angle_wrap(capsys):
+    """--angle-wrap reaches the servo: the same start, each wrap named in the output."""
+    outs = {}
+    for wrap in ("consistent", "per_point"):
+        assert main(["run", "--scheme", "polar", "--case", "z-rotation", "--duration", "2", "--noise", "1e-3",
+                     "--seed", "1", "--angle-wrap", wrap]) in (0, 1)
+        outs[wrap] = capsys.readouterr().out
+    assert "consistent wrap" in outs["consistent"] and "per-point wrap" in outs["per_point"]
+    peak = {w: float(next(x for x in o.splitlines() if "peak ‖v‖" in x).split()[-1]) for w, o in outs.items()}
+    assert 10 * peak["consistent"] < peak["per_point"]  # 1.3 m/s against 121 m/s: the split signs of eq. (13)
+    r = cli("run", "--angle-wrap", "mean")
+    assert r.returncode == 2 and "--angle-wrap" in r.stderr
+
+
 def test_fig4_paths():
     from ibvs import plots
 
@@ -92,3 +106,7 @@ def test_reproduce_quick_end_to_end(tmp_path):
         assert row["status"] == "converged" and float(row["final_t_mm"]) < 1 and float(row["final_r_deg"]) < 0.1
     assert "NOT REPRODUCED" not in r.stdout
     assert "Fig. 4" in (tmp_path / "summary.md").read_text()
+    # Which angle wrap each figure uses: a column, and a sentence in the summary and on stdout.
+    assert {x["angle_wrap"] for k, x in rows.items() if k[2] != "cartesian"} == {"consistent"}
+    assert {x["angle_wrap"] for k, x in rows.items() if k[2] == "cartesian"} == {"-"}
+    assert "Angle wrap of every figure" in (tmp_path / "summary.md").read_text() and "consistent" in r.stdout

@@ -103,21 +103,27 @@ def test_error_is_invariant_to_the_image_angle_origin(rng):
     np.testing.assert_allclose(e1, e2, atol=1e-12)
 
 
+@pytest.mark.parametrize("wrap", ["consistent", "per_point"])
 @pytest.mark.parametrize("mode", ["current", "desired", "mean"])
 @pytest.mark.parametrize("damping", [0.0, 0.02])
-def test_law_matches_numpy_reference(rng, mode, damping):
-    servo = ibvs.Servo(CYL, gain=0.8, damping=damping, jacobian=mode)
+def test_law_matches_numpy_reference(rng, mode, damping, wrap):
+    servo = ibvs.Servo(CYL, gain=0.8, damping=damping, jacobian=mode, angle_wrap=wrap)
     for _ in range(20):
+        servo.reset()  # independent frames: no wrap centre carried over
         uv, uvd = rng.uniform(-0.3, 0.3, (4, 2)), rng.uniform(-0.3, 0.3, (4, 2))
         z, zd = rng.uniform(0.3, 5, 4), rng.uniform(0.3, 5, 4)
+        th, thd = np.arctan2(uv[:, 1], uv[:, 0]), np.arctan2(uvd[:, 1], uvd[:, 0])
+        dths = (th - thd + np.pi) % (2 * np.pi) - np.pi  # eq. (13) point by point
+        if wrap == "consistent":  # one rotation: about the circular mean of the differences
+            mean = np.angle(np.exp(1j * dths).sum())
+            dths = mean + (dths - mean + np.pi) % (2 * np.pi) - np.pi
         J, e = [], []
         for i in range(4):
             r, rd = np.hypot(*uv[i]), np.hypot(*uvd[i])
-            th, thd = np.arctan2(uv[i, 1], uv[i, 0]), np.arctan2(uvd[i, 1], uvd[i, 0])
-            dth = (th - thd + np.pi) % (2 * np.pi) - np.pi
+            dth = dths[i]
             e += [r - rd, r * dth]
-            Jc = cyl_rows(r, np.cos(th), np.sin(th), dth, z[i])
-            Jd = cyl_rows(rd, np.cos(thd), np.sin(thd), 0.0, zd[i])
+            Jc = cyl_rows(r, np.cos(th[i]), np.sin(th[i]), dth, z[i])
+            Jd = cyl_rows(rd, np.cos(thd[i]), np.sin(thd[i]), 0.0, zd[i])
             J.append({"current": Jc, "desired": Jd, "mean": (Jc + Jd) / 2}[mode])
         J, e = np.vstack(J), np.array(e)
         P = np.linalg.pinv(J) if damping == 0 else np.linalg.solve(J.T @ J + damping**2 * np.eye(6), J.T)

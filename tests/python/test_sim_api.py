@@ -96,9 +96,13 @@ def test_left_image_reported_with_point_index():
 
 
 def test_behind_camera_reported():
-    tilted = sim.Target(sim.Target.paper().points, pose(t=(0, 0, 3), r=(-0.3, 0, 0)))
+    # The camera goes through the tilted target (a collision with the plate, test_sim_faces.py); with
+    # a non-planar target (no faces) and no standoff the event is a point behind the camera.
+    pts = sim.Target.paper().points.copy()
+    pts[0, 2] = 0.01
+    tilted = sim.Target(pts, pose(t=(0, 0, 3), r=(-0.3, 0, 0)))
     r = sim.run(servo(gain=4.0), sim.Camera.normalized(1e3), tilted, np.eye(4), pose(t=(0, 0, 2.4)), duration=10,
-                latency=20)
+                latency=20, standoff_ratio=0.0)
     assert r.status.outcome == "behind_camera" and 0 <= r.status.point < 4
     T_cw = np.linalg.inv(r.history.pose[-1])
     assert (T_cw @ np.r_[tilted.world_points()[r.status.point], 1.0])[2] < 1e-3

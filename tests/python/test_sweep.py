@@ -7,6 +7,7 @@ import pytest
 
 import ibvs
 import ibvs.sweep as sw
+from ibvs import sim
 from ibvs.__main__ import main
 
 # Small and fast: short episodes, few starts.
@@ -68,7 +69,9 @@ def test_aggregate_and_table():
     assert by[("cartesian", 90.0)]["retreat"] > 0.5 > by[("polar", 90.0)]["retreat"]
     for t in table:
         assert 0 <= t["left_image"] <= 1 and t["joint_limit"] == 0
+        assert sum(t[o] for o in t["outcomes"]) == pytest.approx(1)  # every outcome has its column
     text = sw.format_table(table)
+    assert all(o in text.splitlines()[0] for o in sim.OUTCOMES)
     assert text.count("\n") == 5 and "| polar | [90, 180] | 1 | 100.0 %" in text
     with pytest.raises(ValueError, match="by"):
         sw.aggregate(rows, by="nope")
@@ -151,6 +154,7 @@ def test_cli(tmp_path, capsys):
                  "--jobs", "1", "--quiet", "--range", "rz_deg=0:90", "--bin-width", "45"]) == 0
     text = capsys.readouterr().out
     assert "| polar | [0, 45)" in text and "6 episodes" in text
+    assert all(o in text for o in ("diverged", "timeout", "target_backside", "collision"))
     for bad in (["sweep"], ["sweep", "--out", str(out), "--episodes", "-3"], ["sweep", "--out", str(out), "--schemes", "x"],
                 ["sweep", "--out", str(out), "--range", "tx=1:0"], ["sweep", "--out", str(out), "--range", "bogus=0:1"],
                 ["sweep", "--out", str(out), "--jobs", "0"], ["sweep", "--out", str(out), "--world", "moon"],
@@ -160,3 +164,32 @@ def test_cli(tmp_path, capsys):
             main(bad)
         assert e.value.code == 2, bad
     capsys.readouterr()
+
+
+def test_angle_wrap_option():
+    """The sweep's angle_wrap is set on every ibvs.Servo, recorded per row and part of the config."""
+    kw = dict(jobs=1, schemes=["polar", "partitioned"], grid={"rz_deg": [179.8]}, duration=2.0,
+              progress=False)
+    a = sw.sweep(None, **kw)
+    b = sw.sweep(None, angle_wrap="per_point", **kw)
+    assert {r["angle_wrap"] for r in a} == {"consistent"} and {r["angle_wrap"] for r in b} == {"per_point"}
+    assert a[0]["config"] != b[0]["config"]
+    with pytest.raises(ValueError, match="angle_wrap"):
+        sw.sweep(None, angle_wrap="both", **kw)
+
+
+def test_angle_wrap_in_a_scenario_file(tmp_path):
+    """angle_wrap is a [control] key of scenario files; a bad value is refused naming it."""
+    from pathlib import Path
+
+    from ibvs import scenario
+
+    text = (Path(__file__).parents[2] / "docs" / "scenario.toml").read_text()
+    for value, ok in (("per_point", True), ("both", False)):
+        path = tmp_path / f"{value}.toml"
+        path.write_text(text.replace("[control]\n", f'[control]\nangle_wrap = "{value}"\n'))
+        if ok:
+            assert scenario.load(path)[0].angle_wrap == "per_point"
+        else:
+            with pytest.raises(ValueError, match="angle_wrap"):
+                scenario.load(path)

@@ -3,6 +3,7 @@
 // Conventions are stated once, in ibvs/features.hpp.
 #pragma once
 
+#include "ibvs/angle_wrap.hpp"
 #include "ibvs/camera_model.hpp"
 #include "ibvs/depth_estimator.hpp"
 #include "ibvs/features.hpp"

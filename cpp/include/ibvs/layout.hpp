@@ -2,6 +2,7 @@
 // and Section V), and the stacked features, Jacobian and error it defines.
 #pragma once
 
+#include "ibvs/angle_wrap.hpp"
 #include "ibvs/features.hpp"
 #include "ibvs/limits.hpp"
 
@@ -73,15 +74,21 @@ void stacked_jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
                       Eigen::Ref<MatrixX6> J,
                       double polar_min_radius = default_polar_min_radius) noexcept;
 
-/// Feature error f (-) f*: plain difference, theta rows wrapped by wrap_angle().
+/// Feature error f (-) f*: plain difference, theta rows wrapped (eq. 13).
 /// Cylindrical blocks: (r - r*, r wrap(theta - theta*)), the arc from the
 /// desired direction at the current radius (0 when r or r* is 0). This is the
 /// difference of (r, r alpha) features whose angle alpha is measured from theta*:
 /// independent of where the image's angle origin lies, continuous except
 /// opposite the desired direction (like eq. 13), and -> 0 as r -> 0.
+/// The angle differences of all polar and cylindrical blocks are wrapped as one
+/// rotation (AngleWrap::consistent, see angle_wrap.hpp; blocks with r or r* = 0
+/// do not take part in the mean) or each into (-pi, pi] (AngleWrap::per_point).
+/// The mean is taken from (cos, sin) of the differences here; Servo takes it from
+/// the points' unit vectors, so the two agree except for a difference within
+/// rounding of phi -/+ pi.
 void stacked_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
-                   const Eigen::Ref<const Eigen::VectorXd>& f_desired,
-                   Eigen::Ref<Eigen::VectorXd> e) noexcept;
+                   const Eigen::Ref<const Eigen::VectorXd>& f_desired, Eigen::Ref<Eigen::VectorXd> e,
+                   AngleWrap wrap = AngleWrap::consistent) noexcept;
 
 // ---- allocating versions that validate first (throw std::invalid_argument) ----
 // Points: finite, |u|, |v| <= max_normalized_coordinate; depths in [min_depth,
@@ -98,6 +105,7 @@ MatrixX6 jacobian(const Layout& layout, const Eigen::Ref<const Points>& uv,
                   const Eigen::Ref<const Eigen::VectorXd>& depth,
                   double polar_min_radius = default_polar_min_radius);
 Eigen::VectorXd feature_error(const Layout& layout, const Eigen::Ref<const Eigen::VectorXd>& f,
-                              const Eigen::Ref<const Eigen::VectorXd>& f_desired);
+                              const Eigen::Ref<const Eigen::VectorXd>& f_desired,
+                              AngleWrap wrap = AngleWrap::consistent);
 
 }  // namespace ibvs

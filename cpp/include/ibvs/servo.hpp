@@ -57,6 +57,10 @@ struct ServoOptions {
   /// (m/s) and |w| <= max_angular_speed (rad/s). Infinite (off) by default.
   double max_linear_speed = no_limit;
   double max_angular_speed = no_limit;
+  /// Angle errors (polar theta, cylindrical r theta) wrapped as one rotation about their
+  /// circular mean, with frame-to-frame continuity (default), or point by point (eq. 13).
+  /// See angle_wrap.hpp for the exact rules.
+  AngleWrap angle_wrap = AngleWrap::consistent;
 };
 
 /// Per-frame input, sized once for a layout (N points). The library allocates
@@ -145,6 +149,14 @@ inline constexpr int max_realtime_rows = 256;
 /// rank-deficient J: fewer than 3 points, the mean Jacobian at the half-turn,
 /// a tiny damping on a rank-deficient J).
 ///
+/// Angle wrap (options.angle_wrap, angle_wrap.hpp): consistent (default) wraps
+/// the theta differences of every polar and cylindrical block that is not a
+/// fallback into (phi - pi, phi + pi] about their circular mean phi; phi is
+/// unwrapped against the previous update's while within pi + wrap_hysteresis
+/// of 0, so near the half-turn the branch does not alternate from frame to
+/// frame with the noise. reset() forgets the previous frame (call it when a
+/// new servoing task starts); per_point is eq. (13) point by point, stateless.
+///
 /// r -> 0 policy: a polar block whose current or desired radius is below
 /// polar_min_radius uses its Cartesian rows and Cartesian error for that step
 /// (theta is undefined at the principal point and its rows grow as 1/r);
@@ -164,6 +176,8 @@ class Servo {
   /// Replace the options (gain scheduling etc.). Throws on invalid values; never allocates.
   void set_options(const ServoOptions& options);
   static void validate(const ServoOptions& options);
+  /// Forget the previous frame's angle-wrap branch (see angle_wrap.hpp). noexcept.
+  void reset() noexcept;
 
   /// Throws std::invalid_argument naming the first bad argument.
   void validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
@@ -200,6 +214,7 @@ class Servo {
   ServoOptions options_;
   std::unique_ptr<Kernel> kernel_;
   detail::PixelFrontEnd pixels_;  // camera and normalised points of update_pixels()
+  double wrap_centre_;  // previous frame's angle-wrap centre; NaN: none (after construction / reset())
 };
 
 /// Default switching radius of the automatic hybrid (normalised units: 50 px

@@ -18,6 +18,8 @@ const char* to_string(Outcome o) noexcept {
     case Outcome::singular: return "singular";
     case Outcome::diverged: return "diverged";
     case Outcome::timeout: return "timeout";
+    case Outcome::target_backside: return "target_backside";
+    case Outcome::collision: return "collision";
   }
   return "unknown";
 }
@@ -47,6 +49,7 @@ void EpisodeOptions::validate() const {
   if (!(depth_scale > 0.0) || !std::isfinite(depth_scale)) fail("depth_scale must be finite and > 0");
   if (!(boundary_margin >= 0.0) || !std::isfinite(boundary_margin)) fail("boundary_margin must be finite and >= 0");
   if (!(boundary_gain >= 0.0) || !std::isfinite(boundary_gain)) fail("boundary_gain must be finite and >= 0");
+  if (!(standoff_ratio >= 0.0) || !std::isfinite(standoff_ratio)) fail("standoff_ratio must be finite and >= 0");
 }
 
 namespace {
@@ -116,6 +119,8 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   }
   world_points_ = target_.world_points();
   centroid_ = target_.points.rowwise().mean();
+  centroid_w_ = target_.pose.topLeftCorner<3, 3>() * centroid_ + target_.pose.topRightCorner<3, 1>();
+  if (target_.planar()) extent_ = (target_.points.colwise() - centroid_).colwise().norm().maxCoeff();
   const int slots = options_.latency + 1;
   pc_.resize(3, n);
   measured_.resize(2, static_cast<Eigen::Index>(n) * slots);
@@ -185,6 +190,15 @@ void Episode::prepare(const Pose& goal) {
     z_ = options_.depth_scale * result_.depth_desired;
     depth_estimator_->reset(z_);
   }
+  // Target faces: the front is the goal camera's side of a planar target's plane.
+  const Eigen::Vector3d to_goal = goal.topRightCorner<3, 1>() - centroid_w_;
+  standoff_ = options_.standoff_ratio * (T_cw.topLeftCorner<3, 3>() * centroid_w_ + T_cw.topRightCorner<3, 1>())(2);
+  front_.setZero();
+  if (target_.planar()) {
+    const Eigen::Vector3d n = target_.pose.topLeftCorner<3, 3>().col(2);
+    const double side = n.dot(to_goal);
+    if (std::abs(side) > 1e-9 * std::max(1.0, to_goal.norm())) front_ = side > 0.0 ? n : Eigen::Vector3d(-n);
+  }
 }
 
 const EpisodeResult& Episode::run(const Pose& start, const Pose& goal) {
@@ -233,16 +247,17 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   bool kinematics_ok = !robot || robot_->kinematics(q, T_we, joint_in_.jacobian);
   std::mt19937_64 rng(options_.seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  const Eigen::Vector3d centroid_w = target_.pose.topLeftCorner<3, 3>() * centroid_ + target_.pose.topRightCorner<3, 1>();
 
   History& h = result_.history;
   Metrics& mt = result_.metrics;
   EpisodeStatus& st = result_.status;
   mt = Metrics{};
   st = EpisodeStatus{};
+  if (Servo* s = std::get_if<Servo>(&servo_)) s->reset();  // a new task: no angle-wrap branch from the last run
   Pose T_est = Pose::Identity();
   bool have_est = false;
   double depth0 = 0.0, error0 = 0.0;
+  Eigen::Vector3d c_prev = T_wc.topRightCorner<3, 1>();  // camera centre at the last frame
 
   int k = 0;
   for (;; ++k) {
@@ -262,7 +277,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     }
     const Eigen::Matrix3d Rcw = T_wc.topLeftCorner<3, 3>().transpose();
     const Eigen::Vector3d tcw = -Rcw * T_wc.topRightCorner<3, 1>();
-    const double target_depth = (Rcw * centroid_w + tcw)(2);
+    const double target_depth = (Rcw * centroid_w_ + tcw)(2);
     if (k == 0) depth0 = target_depth;
     mt.camera_retreat = std::max(mt.camera_retreat, target_depth - depth0);
     if (!kinematics_ok || !T_wc.allFinite() || target_depth > options_.max_depth_ratio * std::abs(depth0)) {
@@ -270,7 +285,11 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
       break;
     }
 
-    // 2. True points in the camera frame; physical events.
+    // 2. Physical events: the camera against the target's faces, then the points in the camera frame.
+    if (target_contact(c_prev, T_wc.topRightCorner<3, 1>(), k > 0, st)) {
+      st.frame = k;
+      break;
+    }
     pc_.noalias() = Rcw * world_points_;
     pc_.colwise() += tcw;
     int behind = -1, outside = -1;
@@ -406,12 +425,48 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
           T_wc.topLeftCorner<3, 3>().transpose() * (T_next.topRightCorner<3, 1>() - T_wc.topRightCorner<3, 1>());
     }
     mt.path_length += (T_next.topRightCorner<3, 1>() - T_wc.topRightCorner<3, 1>()).norm();
+    c_prev = T_wc.topRightCorner<3, 1>();
     T_wc = T_next;
   }
   h.frames = k + 1;
   const Pose& goal = result_.goal;
   mt.final_translation_error = (T_wc.topRightCorner<3, 1>() - goal.topRightCorner<3, 1>()).norm();
   mt.final_rotation_error = rotation_angle(goal.topLeftCorner<3, 3>(), T_wc.topLeftCorner<3, 3>());
+}
+
+// Collision or target_backside (see episode.hpp) for the camera centre moving from
+// `from` (the last frame's; ignored unless `moved`) to `to`; fills st and returns true.
+bool Episode::target_contact(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool moved,
+                             EpisodeStatus& st) const noexcept {
+  if (front_.isZero()) {  // no plate: the standoff around each point
+    for (int i = 0; i < target_.size(); ++i)
+      if ((to - world_points_.col(i)).norm() < standoff_) {
+        st = {Outcome::collision, -1, i, -1};
+        return true;
+      }
+    return false;
+  }
+  // Height above the plane (> 0 in front) and distance from the centroid within it.
+  const auto height = [&](const Eigen::Vector3d& c) { return front_.dot(c - centroid_w_); };
+  const auto radial = [&](const Eigen::Vector3d& c, double hc) { return (c - centroid_w_ - hc * front_).norm(); };
+  const double h1 = height(to);
+  if (moved) {
+    const double h0 = height(from);
+    if (h0 > 0.0 && h1 <= 0.0) {  // crossed the plane since the last frame: where?
+      const Eigen::Vector3d x = from + (h0 / (h0 - h1)) * (to - from);
+      st = {radial(x, 0.0) <= extent_ ? Outcome::collision : Outcome::target_backside, -1, -1, -1};
+      return true;
+    }
+  }
+  if (!(h1 > 0.0)) {
+    st = {Outcome::target_backside, -1, -1, -1};
+    return true;
+  }
+  if (std::hypot(h1, std::max(0.0, radial(to, h1) - extent_)) < standoff_) {
+    st = {Outcome::collision, -1, -1, -1};
+    return true;
+  }
+  return false;
 }
 
 // Tz of the image-boundary potential (see episode.hpp) for the measurement the

@@ -39,6 +39,7 @@ __all__ = [
     "Gantry",
     "History",
     "Metrics",
+    "OUTCOMES",
     "Result",
     "Robot",
     "RunStatus",
@@ -52,7 +53,9 @@ __all__ = [
     "run",
 ]
 
-OUTCOMES = ("converged", "left_image", "behind_camera", "joint_limit", "singular", "diverged", "timeout")
+#: How an episode can end (the C++ Outcome enum, in its order).
+OUTCOMES = ("converged", "left_image", "behind_camera", "joint_limit", "singular", "diverged", "timeout",
+            "target_backside", "collision")
 
 
 @dataclass(frozen=True)
@@ -60,8 +63,16 @@ class RunStatus:
     """How an episode ended.
 
     outcome: one of OUTCOMES. frame: frame of the event (the last frame for a
-    timeout). point: index of the point for left_image / behind_camera, else -1.
-    joint: index (0-based) of the joint for joint_limit, else -1.
+    timeout). point: index of the point for left_image / behind_camera (and for a
+    collision with a non-planar target), else -1. joint: index (0-based) of the joint
+    for joint_limit, else -1.
+
+    target_backside: the camera centre went behind a planar target's plane (the front is
+    the side the goal camera sees), so its points are seen from behind. collision: the
+    camera centre went through the plate (crossed its plane within the disc about the
+    points' centroid through the farthest point) or came closer to it than the standoff;
+    a non-planar target has no front (never target_backside) and collides within the
+    standoff of any of its points. See run(standoff_ratio=...).
     """
 
     outcome: str
@@ -219,6 +230,7 @@ def run(
     depth_scale: float = 1.0,
     boundary_margin: float = 0.0,
     boundary_gain: float = 0.1,
+    standoff_ratio: float = 0.05,
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -257,6 +269,10 @@ def run(
         this distance of a side of the sensor (at most its goal's distance to that side),
         growing without bound towards the border; 0 (default) = off.
     boundary_gain: >= 0, 1/s, weight of that retreat.
+    standoff_ratio: >= 0: the episode ends as "collision" when the camera centre comes
+        closer to the target than this times the goal depth of the target's centroid
+        (default 5 %), or goes through a planar target; "target_backside" when it goes
+        behind a planar target's plane (see RunStatus).
     """
     if robot is not None and not isinstance(robot, Robot):
         raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
@@ -287,6 +303,7 @@ def run(
         depth_scale=_real(depth_scale, "depth_scale"),
         boundary_margin=_real(boundary_margin, "boundary_margin"),
         boundary_gain=_real(boundary_gain, "boundary_gain"),
+        standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
     metrics = Metrics(

@@ -7,10 +7,11 @@
 //   1. true camera pose T_wc(k): from the exact SE(3) integration of the
 //      previous command (free-flying, T_wc <- T_wc exp(v dt)) or from the
 //      robot's forward kinematics at its joint positions (times its mount);
-//   2. the target's points in the camera frame; a point with depth below
-//      min_depth ends the episode (behind_camera); one whose noise-free
-//      projection falls outside the sensor, or that the camera model cannot
-//      map (beyond its max_radius), ends it as left_image;
+//   2. physical events: the camera against the target's faces (collision,
+//      target_backside, below), then the target's points in the camera frame:
+//      a point with depth below min_depth ends the episode (behind_camera);
+//      one whose noise-free projection falls outside the sensor, or that the
+//      camera model cannot map (beyond its max_radius), ends it as left_image;
 //   3. the measurement: the camera model's projection (ibvs::CameraModel:
 //      kud for the paper's ViSP camera) plus Gaussian noise (seeded),
 //      written into a latency ring buffer; the controller reads the one taken
@@ -38,6 +39,23 @@
 //      at the new joints (pose of the next frame, Jacobian of its mapping).
 // Desired features are measured the same way at the goal pose (teach by
 // showing), so the goal is an exact equilibrium of the noise-free loop.
+//
+// Target faces and collisions (step 2). A planar target (all points in its
+// z = 0 plane, Target::planar) is a plate: its front is the side of its plane
+// the goal camera's centre is on, its extent the disc in that plane about the
+// points' centroid through the point farthest from it. Every frame, with c the
+// camera centre:
+//   * collision: c crossed the plane since the last frame at a point inside
+//     the extent (the camera went through the plate), or c is closer to the
+//     plate (the disc) than the standoff, standoff_ratio times the goal depth
+//     of the target's centroid;
+//   * target_backside: c is behind the plane (it crossed it outside the
+//     extent, went round the plate's edge, or started there): every point is
+//     then seen from behind its plate.
+// A non-planar target has no single front: it is exempt from target_backside,
+// and collides when c comes closer than the standoff to any of its points
+// (EpisodeStatus::point says which). A goal camera in the target's own plane
+// leaves the plate without a front (only the standoff applies).
 //
 // Image-boundary potential (paper Section IV; Corke & Hutchinson 2001, Sec. V):
 // for every measured point i and every side of the sensor, d = its distance to
@@ -113,6 +131,8 @@ enum class Outcome : std::uint8_t {
   singular = 4,       ///< the servo reported a rank-deficient interaction matrix
   diverged = 5,       ///< non-finite state, error or target depth beyond its bound, or the robot's kinematics failed
   timeout = 6,        ///< duration elapsed
+  target_backside = 7,  ///< the camera centre went behind the planar target's plane (see above)
+  collision = 8,        ///< the camera went through the target or within the standoff of it (see above)
 };
 const char* to_string(Outcome o) noexcept;
 const char* to_string(DepthMode d) noexcept;
@@ -131,6 +151,9 @@ struct EpisodeOptions {
   double depth_scale = 1.0;        ///< > 0: multiplies the depth given to the controller (estimated: its initial guess)
   double boundary_margin = 0.0;    ///< >= 0, measurement units; 0 = no image-boundary potential
   double boundary_gain = 0.1;      ///< >= 0, 1/s; weight of the boundary potential's Tz retreat
+  /// >= 0: collision when the camera centre comes closer to the target than this times the
+  /// goal depth of the target's centroid (0: only going through a planar target collides).
+  double standoff_ratio = 0.05;
 
   void validate() const;  ///< throws std::invalid_argument naming the field
 };
@@ -138,7 +161,7 @@ struct EpisodeOptions {
 struct EpisodeStatus {
   Outcome outcome = Outcome::timeout;
   int frame = -1;  ///< frame of the event (last frame for timeout)
-  int point = -1;  ///< point index for left_image / behind_camera
+  int point = -1;  ///< point index for left_image / behind_camera (and collision with a non-planar target)
   int joint = -1;  ///< joint index for joint_limit
 };
 
@@ -240,6 +263,7 @@ class Episode {
   void prepare(const Pose& goal);
   void loop(Pose T_wc, const JointVector* q_start) noexcept;
   double boundary_tz(int seen) const noexcept;
+  bool target_contact(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool moved, EpisodeStatus& st) const noexcept;
 
   AnyServo servo_;
   ServoOutput out_;
@@ -254,6 +278,11 @@ class Episode {
   std::optional<DepthEstimator> depth_estimator_;  // DepthMode::estimated
   Eigen::Matrix3Xd world_points_;
   Eigen::Vector3d centroid_;  // target frame
+  // target faces (see above): the plane's unit normal in the world on the goal camera's side
+  // (zero: no front), the extent's radius, the standoff in metres, the centroid in the world
+  Eigen::Vector3d front_ = Eigen::Vector3d::Zero();
+  double extent_ = 0.0, standoff_ = 0.0;
+  Eigen::Vector3d centroid_w_ = Eigen::Vector3d::Zero();
   // per-frame work
   Eigen::Matrix3Xd pc_;
   Points measured_;   // 2 x N(L+1) ring of noisy measurements
