@@ -115,3 +115,17 @@ def test_update_pixels_finite_or_refused(values, depth):
         assert "pixels" in str(e) or "uv" in str(e)
     else:
         assert np.isfinite(r.velocity).all() and np.isfinite(r.pixel_error)
+
+
+def test_pixels_follow_the_normalised_limit():
+    """Pixels are not bounded by |u|, |v| <= 10 themselves (they are hundreds); the point they normalise
+    to is, with the error naming the pixel argument; update_pixels then agrees with validate."""
+    camera = ibvs.CameraModel.from_opencv(K, np.zeros(5), 640, 480)  # no distortion: every pixel inverts
+    px, pxd = camera.project(UV), camera.project(UV_DESIRED)
+    assert np.all(np.abs(px) > 10)
+    for servo in laws(camera):
+        assert np.all(np.isfinite(servo.update_pixels(px, 0.6, pxd).velocity))
+        far = pxd.copy()
+        far[1] = (320.0 + 600.0 * 11, 240.0)  # u = 11: 85 degrees off the axis
+        with pytest.raises(ValueError, match=r"pixels_desired\[1\] = .*normalises to \(11, 0\)"):
+            servo.update_pixels(px, 0.6, far)
