@@ -57,6 +57,12 @@ def gantry_pose(q):
     return GANTRY.robot.camera(q)
 
 
+def orbit(pose_wc, target, r, dz=0.0):
+    """The camera turned by the rotation r (rx, ry, rz; rad) about the target's centre, then moved dz along its axis."""
+    T = np.asarray(target.pose)
+    return T @ sim.pose(r=r) @ np.linalg.inv(T) @ pose_wc @ sim.pose(t=(0, 0, dz))
+
+
 @pytest.mark.parametrize("distorted", [False, True])
 def test_rendered_dot_centroids_match_the_dots_images(distorted):
     camera = camera_640(distorted)
@@ -64,8 +70,7 @@ def test_rendered_dot_centroids_match_the_dots_images(distorted):
     r = vision.Renderer(camera, target, "dots")
     goal = gantry_pose(GANTRY.goal)
     worst_area, worst_proj = 0.0, 0.0
-    for pose in (goal, goal @ sim.pose(t=(0.03, -0.02, -0.1), r=(0.25, -0.2, 0.5)),
-                 goal @ sim.pose(t=(-0.05, 0.04, 0.15), r=(-0.3, 0.35, -2.5))):
+    for pose in (goal, orbit(goal, target, (0.5, -0.4, 0.5), -0.15), orbit(goal, target, (-0.45, 0.5, -2.5), 0.1)):
         img = r.render(pose)
         assert img.dtype == np.uint8 and img.shape == (480, 640)
         proj = projected(camera, target, pose)
@@ -95,11 +100,13 @@ def test_tag_corners_in_order_and_on_the_geometry():
     r = vision.Renderer(camera, target, "tag")
     det = vision.TagDetector((0,), image_size=r.size)
     goal = gantry_pose(GANTRY.goal)
-    for pose in (goal, goal @ sim.pose(t=(0.02, -0.01, -0.05), r=(0.2, -0.15, 2.0))):
+    for pose in (goal, orbit(goal, target, (0.4, -0.3, 2.0), -0.1)):
         track = det.detect(r.render(pose))
         assert track.status == ("detected",) * 4
         err = np.abs(track.pixels - projected(camera, target, pose)).max()
-        assert err < 0.3, err  # corner i is target point i (cv2.aruco's order = Target.square's)
+        # corner i is target point i (cv2.aruco's order = Target.square's); cornerSubPix on the
+        # marker's outer corners is biased by up to ~0.35 px at this tilt (0.1 px at the goal)
+        assert err < 0.5, err
     # another id is not found: every corner reported lost by index
     other = vision.TagDetector((5,), image_size=r.size).detect(r.render(goal))
     assert other.lost == (0, 1, 2, 3) and np.isnan(other.pixels).all()
@@ -140,17 +147,20 @@ def test_loss_at_the_border_is_reported_by_index():
     assert np.all(projected(camera, target, sim.pose(t=(-0.002 * lost_at, 0, 0)))[:, 0] < 640)
 
 
-def test_tracker_gate_and_no_swap_when_a_dot_jumps():
+def test_tracker_gate_a_dot_that_jumps_is_lost_not_swapped():
     camera = camera_640()
     target = sim.Target.square(0.1, sim.pose(t=(0.0, 0.0, 0.6)))
     r = vision.Renderer(camera, target, "dots")
     tr = vision.DotTracker(4, r.size)
-    p0 = projected(camera, target, np.eye(4))
-    tr.reset(p0)
+    tr.reset(projected(camera, target, np.eye(4)))
     assert tr.track(r.render(np.eye(4))).lost == ()
-    # a quarter turn in one frame: every dot jumps ~130 px onto a neighbour's place; none may be swapped
-    t = tr.track(r.render(sim.pose(r=(0, 0, np.pi / 2))))
-    assert set(t.lost) == {0, 1, 2, 3}
+    # a 60 px jump in one frame (half the dots' spacing): out of every gate
+    t = tr.track(r.render(sim.pose(t=(-0.6 * 60 / 800, 0, 0))))
+    assert t.lost == (0, 1, 2, 3) and set(t.status) == {"lost_gate"} and np.isnan(t.pixels).all()
+    # two tracks on one dot: the second is refused
+    tr.reset(projected(camera, target, np.eye(4))[[0, 0, 2, 3]])
+    t = tr.track(r.render(np.eye(4)))
+    assert t.status == ("tracked", "conflict", "tracked", "tracked")
 
 
 # --- image episodes: the paper's claims through images (one shared run per claim) ---
@@ -165,15 +175,17 @@ def z_rotation_case():
 @pytest.fixture(scope="module")
 def z_polar():
     c, cam = z_rotation_case()
-    servo = ibvs.Servo(ibvs.Layout.polar(4), gain=1.0)
-    return sim.run(servo, cam, c.target, c.start, c.goal, duration=8.0, tolerance=1e-4, vision="dots")
+    servo = ibvs.Servo(ibvs.Layout.polar(4), gain=2.0)
+    return sim.run(servo, cam, c.target, c.start, c.goal, duration=4.0, tolerance=2e-3, vision="dots")
 
 
 def test_image_episode_z_rotation_pi_polar(z_polar):
     r = z_polar
     assert r.status.outcome == "converged", r
     assert r.metrics.camera_retreat < 1e-3
-    assert r.metrics.final_rotation_error < math.radians(0.1)
+    assert r.metrics.final_rotation_error < math.radians(0.1) and r.metrics.final_translation_error < 1e-3
+    tw = r.history.twist
+    assert np.abs(tw[:, :5]).max() < 0.02 * np.abs(tw[:, 5]).max()  # a rotation about the optical axis
     m = r.history.measured
     assert m.shape == r.history.projected.shape
     assert np.nanmax(np.abs(m - r.history.projected)) < 0.1  # detection vs truth over the whole run
@@ -183,10 +195,12 @@ def test_image_episode_z_rotation_pi_polar(z_polar):
 def test_image_episode_cartesian_retreats():
     c, cam = z_rotation_case()
     servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
+    points = sim.run(servo, cam, c.target, c.start, c.goal, duration=1.0)
     r = sim.run(servo, cam, c.target, c.start, c.goal, duration=1.0, vision="dots")
-    # pure retreat along the optical axis, as with points: Tz < 0, no rotation
-    assert r.history.twist[0, 2] < 0
-    assert r.metrics.camera_retreat > 0.3
+    # pure retreat along the optical axis to 10 times the start depth, as with points
+    assert r.status.outcome == points.status.outcome == "diverged"
+    assert abs(r.status.frame - points.status.frame) <= 1
+    assert r.history.twist[0, 2] < 0 and r.metrics.camera_retreat > 20
     assert np.abs(r.history.twist[:, 5]).max() < 1e-2 * np.abs(r.history.twist[:, 2]).max()
 
 
@@ -194,7 +208,7 @@ def test_image_episode_cartesian_retreats():
 def gantry_pair():
     c = GANTRY
     servo = ibvs.Servo(ibvs.Layout.stacked(4), gain=1.0)
-    kw = dict(robot=c.robot, duration=c.duration, tolerance=1e-4)
+    kw = dict(robot=c.robot, duration=c.duration, tolerance=1e-5)
     return (sim.run(servo, c.camera, c.target, c.start, c.goal, **kw),
             sim.run(servo, c.camera, c.target, c.start, c.goal, vision="dots", **kw))
 
@@ -205,15 +219,25 @@ def test_image_episode_gantry_distorted(gantry_pair):
     assert images.metrics.final_translation_error < 1e-3
     assert images.metrics.final_rotation_error < math.radians(0.1)
     assert images.history.q.shape[1] == 6
+    # the same path as with exact points: within a few frames and 1 % of its length
+    assert abs(images.metrics.frames_to_converge - points.metrics.frames_to_converge) < 0.05 * len(points.history)
+    assert abs(images.metrics.path_length - points.metrics.path_length) < 0.01 * points.metrics.path_length
+    # the tracker's centroids vs the projected centres over the run (px): the perspective of the
+    # 1 cm dots moves their area centroids by up to ~0.25 px when tilted
+    err = np.abs(images.history.measured - images.history.projected)
+    assert np.nanmedian(err) < 0.05 and np.nanmax(err) < 0.3
 
 
 def test_image_episode_lost_feature():
+    """Gain 10 on the half-turn: the camera turns 30 degrees in the first frame, the dots jump 35 px,
+    out of their gates. The point simulator knows nothing of it; the image episode ends there."""
     c, cam = z_rotation_case()
-    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
-    # a start where the camera is shifted so that point 1 sits near the right border
-    start = sim.pose(t=(-0.55, 0.0, 0.0))
-    r = sim.run(servo, cam, c.target, start, c.goal, duration=0.5, vision="dots")
-    assert r.status.outcome in ("lost_feature", "left_image")
+    servo = ibvs.Servo(ibvs.Layout.polar(4), gain=10.0)
+    points = sim.run(servo, cam, c.target, c.start, c.goal, duration=1.0, tolerance=1e-3)
+    r = sim.run(servo, cam, c.target, c.start, c.goal, duration=1.0, tolerance=1e-3, vision="dots")
+    assert points.status.outcome == "converged"
+    assert r.status.outcome == "lost_feature" and r.status.frame == 1 and r.status.point == 0
+    assert np.isnan(r.history.measured[1]).all() and np.isfinite(r.history.projected[1]).all()
 
 
 # --- bad input ---
@@ -250,6 +274,6 @@ def test_bad_input():
     with pytest.raises(ValueError, match="ids"):
         vision.TagDetector(ids=())
     with pytest.raises(TypeError, match="vision"):
-        sim.run(ibvs.Servo(ibvs.Layout.cartesian(4)), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision=3)
+        sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision=3)
     with pytest.raises(ValueError, match="kind"):
-        sim.run(ibvs.Servo(ibvs.Layout.cartesian(4)), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision="blobs")
+        sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision="blobs")
