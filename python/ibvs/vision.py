@@ -119,7 +119,7 @@ class Renderer:
       exposure     motion blur: exposure time (s) over which render(pose, twist) averages the
                    camera moving with `twist` (5 sub-frames), 0 = none
       noise        sensor noise: std of additive Gaussian noise in gray levels, then 8-bit quantisation
-      seed         of the noise (numpy default_rng); reseed() restarts it
+      seed         of the noise (a numpy default_rng seeds OpenCV's randn per frame); reseed() restarts it
     """
 
     DOT, PLATE, BACKGROUND = 230.0, 30.0, 10.0  # gray levels for dots
@@ -147,6 +147,7 @@ class Renderer:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise TypeError(f"seed must be a non-negative int, got {seed!r}")
         self.reseed(int(seed))
+        self._noise_buffer = np.empty((self.size[1], self.size[0]), np.float32)
         xy = np.asarray(target.points)[:, :2]
         if kind == "dots":
             d = np.linalg.norm(xy[:, None] - xy[None], axis=-1)
@@ -290,8 +291,13 @@ class Renderer:
         if self.blur > 0:
             img = cv2.GaussianBlur(img, (0, 0), self.blur)
         if self.noise > 0:
-            img += self._rng.standard_normal(img.shape, dtype=np.float32) * np.float32(self.noise)
-        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+            # cv2.randn (about 6 times faster than numpy's float32 normals), seeded per frame from this
+            # renderer's own generator: reproducible whatever else uses OpenCV's RNG
+            cv2.setRNGSeed(int(self._rng.integers(0, 2**31 - 1)))
+            cv2.randn(self._noise_buffer, 0.0, self.noise)
+            img += self._noise_buffer
+        # 8-bit quantisation: round to nearest, saturate (cv2's saturate_cast; negatives clipped first)
+        return cv2.convertScaleAbs(cv2.max(img, 0.0))
 
     def __repr__(self) -> str:
         what = f"dots r={self.dot_radius:g} m" if self.kind == "dots" else f"tag {self.dictionary} id {self.tag_id}"
@@ -405,15 +411,12 @@ class DotTracker:
             roi = image[cy0:cy1, cx0:cx1]
             binary = (roi > self._level).astype(np.uint8)
             count, labels, stats, cents = cv2.connectedComponentsWithStats(binary, connectivity=8)
-            best, best_d = -1, math.inf
-            for lab in range(1, count):
-                if stats[lab, cv2.CC_STAT_AREA] < self.min_area:
-                    continue
-                dd = math.hypot(cents[lab, 0] + cx0 - pred[i, 0], cents[lab, 1] + cy0 - pred[i, 1])
-                if dd < best_d:
-                    best, best_d = lab, dd
-            if best < 0:
+            # the blob (of at least min_area pixels) whose centroid is nearest the prediction
+            dist = np.hypot(cents[1:, 0] + cx0 - pred[i, 0], cents[1:, 1] + cy0 - pred[i, 1])
+            dist[stats[1:, cv2.CC_STAT_AREA] < self.min_area] = np.inf
+            if dist.size == 0 or not np.isfinite(dist.min()):
                 continue
+            best = int(np.argmin(dist)) + 1
             bx, by, bw, bh = stats[best, :4]
             gx0, gy0, gx1, gy1 = bx + cx0, by + cy0, bx + bw + cx0, by + bh + cy0  # blob box, image pixels
             if gx0 <= 0 or gy0 <= 0 or gx1 >= W or gy1 >= H:

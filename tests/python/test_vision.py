@@ -277,3 +277,91 @@ def test_bad_input():
         sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision=3)
     with pytest.raises(ValueError, match="kind"):
         sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision="blobs")
+
+
+# --- properties: finite or refused ---
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_SMALL = ibvs.CameraModel(120.0, 120.0, 40.0, 30.0, 0.0, 0.0, 80.0, 60.0)
+_SMALL_TARGET = sim.Target.square(0.1, sim.pose(t=(0, 0, 0.6)))
+_RENDERERS = {k: vision.Renderer(_SMALL, _SMALL_TARGET, k, noise=1.0, blur=0.5, exposure=0.01) for k in vision.KINDS}
+_angles = st.floats(-4, 4, allow_nan=False)
+_offsets = st.floats(-2, 2, allow_nan=False)
+
+
+@settings(max_examples=40, deadline=None)
+@given(kind=st.sampled_from(vision.KINDS), t=st.tuples(_offsets, _offsets, _offsets),
+       r=st.tuples(_angles, _angles, _angles), twist=st.lists(st.floats(-50, 50), min_size=6, max_size=6))
+def test_render_any_pose_is_an_image(kind, t, r, twist):
+    """Any finite pose (behind the plate, edge-on, far, inside it) gives a uint8 image of the camera's size."""
+    img = _RENDERERS[kind].render(sim.pose(t=t, r=r), np.array(twist))
+    assert img.dtype == np.uint8 and img.shape == (60, 80)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), guesses=st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)),
+                                                        min_size=4, max_size=4))
+def test_trackers_on_any_image_are_finite_or_lost(seed, guesses):
+    img = np.random.default_rng(seed).integers(0, 256, (60, 80), dtype=np.uint8)
+    tr = vision.DotTracker(4, (80, 60))
+    tr.reset(np.array(guesses))
+    for _ in range(2):
+        t = tr.track(img)
+        ok = np.isfinite(t.pixels).all(1)
+        assert set(np.flatnonzero(~ok)) == set(t.lost) and np.isnan(t.pixels[~ok]).all()
+        assert ((t.pixels[ok] >= 0) & (t.pixels[ok] <= [79, 59])).all()
+
+
+@settings(max_examples=5, deadline=None)  # cv2.aruco takes ~0.5 s on a frame of pure noise
+@given(seed=st.integers(0, 2**32 - 1))
+def test_tag_detector_on_any_image_is_finite_or_not_found(seed):
+    img = np.random.default_rng(seed).integers(0, 256, (60, 80), dtype=np.uint8)
+    d = vision.TagDetector((0, 3), image_size=(80, 60)).detect(img)
+    found = np.array([s == "detected" for s in d.status])
+    assert d.pixels.shape == (8, 2) and (np.isfinite(d.pixels).all(1) == found).all()
+
+
+@settings(max_examples=30, deadline=None)
+@given(x=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=3), st.none()))
+def test_renderer_options_finite_or_refused(x):
+    for name in ("blur", "exposure", "noise", "dot_radius"):
+        try:
+            r = vision.Renderer(_SMALL, _SMALL_TARGET, "dots", **{name: x})
+        except (TypeError, ValueError) as e:
+            assert name in str(e) or x is None
+        else:
+            assert np.isfinite(getattr(r, name)) and r.render(np.eye(4)).dtype == np.uint8
+
+
+# --- video and the CLI ---
+
+
+def test_cli_run_vision_video(tmp_path, capsys):
+    from ibvs.__main__ import main
+
+    out = tmp_path / "run.mp4"
+    rc = main(["run", "--world", "free", "--case", "z-rotation", "--scheme", "polar", "--gain", "2", "--duration", "0.5",
+               "--vision", "dots", "--video", str(out)])
+    text = capsys.readouterr().out
+    assert rc in (0, 1) and out.exists() and out.stat().st_size > 1000 and "video" in text and "(30 frames)" in text
+    with pytest.raises(SystemExit) as e:  # --video without --vision: one line, exit 2
+        main(["run", "--video", str(tmp_path / "x.mp4")])
+    assert e.value.code == 2 and "needs --vision" in capsys.readouterr().err
+
+
+def test_write_video_gif_and_png_frames(tmp_path):
+    frames = [np.full((60, 80), k * 20, np.uint8) for k in range(3)]
+    det = np.full((3, 2, 2), 30.0)
+    det[1, 0] = np.nan  # a lost point is not drawn
+    gif = vision.write_video(tmp_path / "a.gif", frames, det, np.array([[10.0, 10.0], [50.0, 40.0]]), fps=10)
+    from PIL import Image
+
+    with Image.open(gif) as im:
+        assert im.n_frames == 3
+    d = vision.write_video(tmp_path / "frames", frames)
+    assert sorted(p.name for p in (tmp_path / "frames").iterdir()) == [f"frame_{k:05d}.png" for k in range(3)]
+    assert d.endswith("frames")
+    with pytest.raises(ValueError, match="frames"):
+        vision.write_video(tmp_path / "b.gif", [])
