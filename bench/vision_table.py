@@ -10,9 +10,8 @@ ibvs.vision.image_camera (f = 800 px, the same +-0.3 field vertically).
 
 import math
 
-import numpy as np
-
 import ibvs
+import numpy as np
 from ibvs import sim, vision
 from ibvs.sim import cases
 
@@ -21,8 +20,22 @@ ROWS = [
     ("z-rotation pi, IBVS-P (free)", cases.z_rotation(), "polar", 2.0, 5.0, 2e-3),
     ("z-rotation pi, Cartesian (free)", cases.z_rotation(), "cartesian", 1.0, 2.0, 2e-3),
     ("general motion, stacked (free)", cases.general_motion(), "stacked", 1.0, 20.0, 1e-4),
-    ("gantry general motion, distorted camera, stacked", cases.gantry_general_motion(), "stacked", 1.0, 15.0, 1e-5),
-    ("gantry general motion, distorted camera, IBVS-P", cases.gantry_general_motion(), "polar", 1.0, 15.0, 1e-5),
+    (
+        "gantry general motion, distorted camera, stacked",
+        cases.gantry_general_motion(),
+        "stacked",
+        1.0,
+        15.0,
+        1e-5,
+    ),
+    (
+        "gantry general motion, distorted camera, IBVS-P",
+        cases.gantry_general_motion(),
+        "polar",
+        1.0,
+        15.0,
+        1e-5,
+    ),
 ]
 
 
@@ -31,21 +44,36 @@ def layout(name):
 
 
 def main():
-    print("| case | measurement | outcome | frames | retreat (m) | path (m) | final Δp (mm) | final Δθ (°) "
-          "| detection error median / max (px) |")
+    print(
+        "| case | measurement | outcome | frames | retreat (m) | path (m) | final Δp (mm) | final Δθ (°) "
+        "| detection error median / max (px) |"
+    )
     print("|---|---|---|---:|---:|---:|---:|---:|---:|")
     for name, c, lay, gain, duration, tol in ROWS:
         cam = vision.image_camera(c.camera)
         for how in (None, "dots", "tag"):
             servo = ibvs.Servo(layout(lay), gain=gain)
-            r = sim.run(servo, cam, c.target, c.start, c.goal, robot=c.robot, duration=duration, tolerance=tol,
-                        vision=how)
+            r = sim.run(
+                servo,
+                cam,
+                c.target,
+                c.start,
+                c.goal,
+                robot=c.robot,
+                duration=duration,
+                tolerance=tol,
+                vision=how,
+            )
             m = r.metrics
             err = np.abs(r.history.measured - r.history.projected)
             det = f"{np.nanmedian(err):.3f} / {np.nanmax(err):.3f}" if how else ""
-            print(f"| {name} | {how or 'points'} | {r.status.outcome} | {len(r.history)} | {m.camera_retreat:.3g} "
-                  f"| {m.path_length:.3g} | {1e3 * m.final_translation_error:.3g} "
-                  f"| {math.degrees(m.final_rotation_error):.3g} | {det} |", flush=True)
+            print(
+                f"| {name} | {how or 'points'} | {r.status.outcome} | {len(r.history)} "
+                f"| {m.camera_retreat:.3g} "
+                f"| {m.path_length:.3g} | {1e3 * m.final_translation_error:.3g} "
+                f"| {math.degrees(m.final_rotation_error):.3g} | {det} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -28,16 +28,25 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
 from ._core import CameraModel, se3_exp
 from ._core import sim as _sim
 
-__all__ = ["DotTracker", "ImageSensor", "Renderer", "TagDetector", "Track", "draw_points", "image_camera",
-           "write_video"]
+__all__ = [
+    "DotTracker",
+    "ImageSensor",
+    "Renderer",
+    "TagDetector",
+    "Track",
+    "draw_points",
+    "image_camera",
+    "write_video",
+]
 
 KINDS = ("dots", "tag")
 _TAG_DICTIONARIES = {"apriltag_36h11": "DICT_APRILTAG_36h11", "aruco_4x4_50": "DICT_4X4_50"}
@@ -47,7 +56,10 @@ def _cv2():
     try:
         import cv2
     except ImportError as e:  # pragma: no cover - the test extra installs it
-        raise ImportError("ibvs.vision needs OpenCV: pip install 'ibvs[vision]' (opencv-python-headless)") from e
+        raise ImportError(
+            "ibvs.vision needs OpenCV (opencv-python-headless): "
+            'pip install ".[vision]" from the ibvs repository root'
+        ) from e
     return cv2
 
 
@@ -66,9 +78,16 @@ def _image_size(camera) -> Tuple[int, int]:
         raise TypeError(f"camera must be an ibvs.CameraModel, got {type(camera).__name__}")
     u_min, u_max, v_min, v_max = camera.bounds
     w, h = u_max - u_min, v_max - v_min
-    if u_min != 0 or v_min != 0 or w != round(w) or h != round(h) or not (16 <= w <= 8192 and 16 <= h <= 8192):
+    if (
+        u_min != 0
+        or v_min != 0
+        or w != round(w)
+        or h != round(h)
+        or not (16 <= w <= 8192 and 16 <= h <= 8192)
+    ):
         raise ValueError(
-            "camera must have a pixel sensor [0, width] x [0, height] with integer width and height in [16, 8192] "
+            "camera must have a pixel sensor [0, width] x [0, height] with integer width and height "
+            "in [16, 8192] "
             f"to render images, got bounds {camera.bounds} (a normalised camera has no pixels)"
         )
     return int(w), int(h)
@@ -94,7 +113,9 @@ def check_image(image, size: Tuple[int, int], name: str = "image") -> np.ndarray
     if image.dtype != np.uint8:
         raise TypeError(f"{name} must have dtype uint8 (an 8-bit grayscale image), got {image.dtype}")
     if image.ndim != 2 or image.shape != (size[1], size[0]):
-        raise ValueError(f"{name} must have shape (height, width) = ({size[1]}, {size[0]}), got {image.shape}")
+        raise ValueError(
+            f"{name} must have shape (height, width) = ({size[1]}, {size[0]}), got {image.shape}"
+        )
     return image
 
 
@@ -128,16 +149,28 @@ class Renderer:
     LEVELS = 7  # pyramid levels (each halves the resolution)
     MOTION_SAMPLES = 5
 
-    def __init__(self, camera, target, kind: str = "dots", dot_radius: Optional[float] = None, tag_id: int = 0,
-                 dictionary: str = "apriltag_36h11", blur: float = 0.0, exposure: float = 0.0, noise: float = 0.0,
-                 seed: int = 0):
+    def __init__(
+        self,
+        camera,
+        target,
+        kind: str = "dots",
+        dot_radius: Optional[float] = None,
+        tag_id: int = 0,
+        dictionary: str = "apriltag_36h11",
+        blur: float = 0.0,
+        exposure: float = 0.0,
+        noise: float = 0.0,
+        seed: int = 0,
+    ):
         cv2 = _cv2()
         self.size = _image_size(camera)
         self.camera = camera
         if not isinstance(target, _sim.Target):
             raise TypeError(f"target must be an ibvs.sim.Target, got {type(target).__name__}")
         if not target.planar:
-            raise ValueError("target: the renderer draws planar targets only (all points in the target's z = 0 plane)")
+            raise ValueError(
+                "target: the renderer draws planar targets only (all points in the target's z = 0 plane)"
+            )
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
         self.target, self.kind = target, kind
@@ -154,10 +187,13 @@ class Renderer:
             closest = d[~np.eye(len(xy), dtype=bool)].min() if len(xy) > 1 else 0.1
             if closest <= 0:
                 raise ValueError("target: two points coincide; their dots cannot be drawn apart")
-            self.dot_radius = 0.1 * closest if dot_radius is None else _real(dot_radius, "dot_radius", 0.0, 10.0)
+            self.dot_radius = (
+                0.1 * closest if dot_radius is None else _real(dot_radius, "dot_radius", 0.0, 10.0)
+            )
             if not (0 < self.dot_radius < 0.5 * closest):
                 raise ValueError(
-                    f"dot_radius must be in (0, {0.5 * closest:g}) m (half the smallest distance between points), "
+                    f"dot_radius must be in (0, {0.5 * closest:g}) m "
+                    "(half the smallest distance between points), "
                     f"got {self.dot_radius!r}"
                 )
             lo, hi = xy.min(0) - 3 * self.dot_radius, xy.max(0) + 3 * self.dot_radius
@@ -172,7 +208,9 @@ class Renderer:
             self.tag_id, self.dictionary = int(tag_id), dictionary
             dic = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, _TAG_DICTIONARIES[dictionary]))
             if self.tag_id >= dic.bytesList.shape[0]:
-                raise ValueError(f"tag_id must be < {dic.bytesList.shape[0]} for {dictionary}, got {self.tag_id}")
+                raise ValueError(
+                    f"tag_id must be < {dic.bytesList.shape[0]} for {dictionary}, got {self.tag_id}"
+                )
             modules, quiet = dic.markerSize + 2, 2  # black border included; a white quiet zone of 2 modules
             per_module = 16 * int(math.ceil(self.BASE_TEXELS / (16 * (modules + 2 * quiet))))
             self._tag = (side, dic, modules, per_module, quiet)
@@ -191,7 +229,9 @@ class Renderer:
     def _build_texture(self, cv2, lo, hi, xy) -> None:
         extent = hi - lo
         step = 2 ** (self.LEVELS - 1)
-        d0 = self._d0 if self.kind == "tag" else extent.max() / self.BASE_TEXELS  # metres per texel at level 0
+        d0 = (
+            self._d0 if self.kind == "tag" else extent.max() / self.BASE_TEXELS
+        )  # metres per texel at level 0
         cols = int(math.ceil(extent[0] / d0 / step - 1e-9)) * step
         rows = int(math.ceil(extent[1] / d0 / step - 1e-9)) * step
         self._origin = lo  # texel (c, r) of level l covers origin + [c, c + 1] * d_l along x (same for y)
@@ -215,11 +255,15 @@ class Renderer:
             plate = (modules + 2 * quiet) * per_module
             tex[:plate, :plate] = self.WHITE
             o = quiet * per_module
-            tex[o:o + modules * per_module, o:o + modules * per_module] = np.where(marker > 127, self.WHITE, self.BLACK)
+            tex[o : o + modules * per_module, o : o + modules * per_module] = np.where(
+                marker > 127, self.WHITE, self.BLACK
+            )
         self._pyramid = [tex.astype(np.float32)]
         for _ in range(1, self.LEVELS):
             t = self._pyramid[-1]
-            self._pyramid.append(cv2.resize(t, (t.shape[1] // 2, t.shape[0] // 2), interpolation=cv2.INTER_AREA))
+            self._pyramid.append(
+                cv2.resize(t, (t.shape[1] // 2, t.shape[0] // 2), interpolation=cv2.INTER_AREA)
+            )
 
     def _build_lens(self) -> None:
         """The remap from the sensor to an ideal pinhole image with the camera's K (shifted to hold it)."""
@@ -251,7 +295,9 @@ class Renderer:
         R, t = T_ct[:3, :3], T_ct[:3, 3]
         W, H = self._pinhole_size
         cam = self.camera
-        Kp = np.array([[cam.px, 0, cam.u0 + self._shift[0]], [0, cam.py, cam.v0 + self._shift[1]], [0, 0, 1.0]])
+        Kp = np.array(
+            [[cam.px, 0, cam.u0 + self._shift[0]], [0, cam.py, cam.v0 + self._shift[1]], [0, 0, 1.0]]
+        )
         Hp = Kp @ np.column_stack([R[:, 0], R[:, 1], t])  # target plane (x, y, 1) -> pinhole pixel
         if (np.linalg.inv(T_ct)[2, 3]) >= 0 or not np.isfinite(Hp).all():
             # the camera is behind the plate (or on its plane): it sees the plate's blank back
@@ -265,8 +311,14 @@ class Renderer:
         level = int(np.clip(math.ceil(math.log2(0.7 / max(ppm * self._d0, 1e-12))), 0, self.LEVELS - 1))
         d = self._d0 * 2**level
         S = np.array([[d, 0, self._origin[0] + 0.5 * d], [0, d, self._origin[1] + 0.5 * d], [0, 0, 1.0]])
-        return cv2.warpPerspective(self._pyramid[level], Hp @ S, (W, H), flags=cv2.INTER_LINEAR,
-                                   borderMode=cv2.BORDER_CONSTANT, borderValue=float(self.background))
+        return cv2.warpPerspective(
+            self._pyramid[level],
+            Hp @ S,
+            (W, H),
+            flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=float(self.background),
+        )
 
     def render(self, pose_wc, twist=None) -> np.ndarray:
         """The camera's uint8 image (height, width) at world <- camera pose_wc (4, 4); twist (6,) the camera's
@@ -286,8 +338,14 @@ class Renderer:
                     img += self._pinhole(cv2, pose_wc @ se3_exp(v * s))
                 img *= 1.0 / self.MOTION_SAMPLES
         if self._map is not None:
-            img = cv2.remap(img, self._map[0], self._map[1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                            borderValue=float(self.background))
+            img = cv2.remap(
+                img,
+                self._map[0],
+                self._map[1],
+                cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=float(self.background),
+            )
         if self.blur > 0:
             img = cv2.GaussianBlur(img, (0, 0), self.blur)
         if self.noise > 0:
@@ -300,9 +358,16 @@ class Renderer:
         return cv2.convertScaleAbs(cv2.max(img, 0.0))
 
     def __repr__(self) -> str:
-        what = f"dots r={self.dot_radius:g} m" if self.kind == "dots" else f"tag {self.dictionary} id {self.tag_id}"
-        return (f"Renderer({what}, {self.size[0]}x{self.size[1]}, blur={self.blur:g} px, exposure={self.exposure:g} s, "
-                f"noise={self.noise:g})")
+        what = (
+            f"dots r={self.dot_radius:g} m"
+            if self.kind == "dots"
+            else f"tag {self.dictionary} id {self.tag_id}"
+        )
+        return (
+            f"Renderer({what}, {self.size[0]}x{self.size[1]}, blur={self.blur:g} px, "
+            f"exposure={self.exposure:g} s, "
+            f"noise={self.noise:g})"
+        )
 
 
 def _tag_side(xy: np.ndarray) -> float:
@@ -314,7 +379,8 @@ def _tag_side(xy: np.ndarray) -> float:
     expected = c + side / 2 * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
     if not (side > 0) or np.abs(xy - expected).max() > 1e-9 * max(side, 1.0):
         raise ValueError(
-            "target: a tag's points must be the corners of an axis-aligned square in the target's z = 0 plane, "
+            "target: a tag's points must be the corners of an axis-aligned square in the target's "
+            "z = 0 plane, "
             "in the order (-,-), (+,-), (+,+), (-,+) (Target.square)"
         )
     return float(side)
@@ -357,12 +423,25 @@ class DotTracker:
     already taken by another point is refused ("conflict"): correspondences never swap.
     """
 
-    def __init__(self, n_points: int, image_size, threshold: Optional[float] = None, gate: float = 10.0,
-                 min_area: int = 4):
-        if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or not 1 <= n_points <= 1000:
+    def __init__(
+        self,
+        n_points: int,
+        image_size,
+        threshold: Optional[float] = None,
+        gate: float = 10.0,
+        min_area: int = 4,
+    ):
+        if (
+            isinstance(n_points, bool)
+            or not isinstance(n_points, (int, np.integer))
+            or not 1 <= n_points <= 1000
+        ):
             raise ValueError(f"n_points must be an int in [1, 1000], got {n_points!r}")
-        if (not isinstance(image_size, (tuple, list)) or len(image_size) != 2
-                or not all(isinstance(s, (int, np.integer)) and 16 <= s <= 8192 for s in image_size)):
+        if (
+            not isinstance(image_size, (tuple, list))
+            or len(image_size) != 2
+            or not all(isinstance(s, (int, np.integer)) and 16 <= s <= 8192 for s in image_size)
+        ):
             raise ValueError(f"image_size must be (width, height), ints in [16, 8192], got {image_size!r}")
         self.n = int(n_points)
         self.size = (int(image_size[0]), int(image_size[1]))
@@ -377,7 +456,9 @@ class DotTracker:
         """Start tracking at the guesses pixels (N, 2)."""
         p = np.asarray(pixels, dtype=np.float64)
         if p.shape != (self.n, 2) or not np.isfinite(p).all():
-            raise ValueError(f"pixels must be {self.n} finite guesses, shape ({self.n}, 2), got shape {p.shape}")
+            raise ValueError(
+                f"pixels must be {self.n} finite guesses, shape ({self.n}, 2), got shape {p.shape}"
+            )
         self._last, self._prev = p.copy(), None
         self._radius = np.full(self.n, np.nan)
         self._level = self.threshold
@@ -461,12 +542,21 @@ class TagDetector:
     detect(image) -> Track: status "detected" or "not_found" per corner.
     """
 
-    def __init__(self, ids: Sequence[int] = (0,), dictionary: str = "apriltag_36h11", refine: bool = True,
-                 image_size=None, decimate: int = 2):
+    def __init__(
+        self,
+        ids: Sequence[int] = (0,),
+        dictionary: str = "apriltag_36h11",
+        refine: bool = True,
+        image_size=None,
+        decimate: int = 2,
+    ):
         cv2 = _cv2()
         ids = tuple(ids) if isinstance(ids, (tuple, list)) else None
-        if (not ids or any(isinstance(i, bool) or not isinstance(i, (int, np.integer)) or i < 0 for i in ids)
-                or len(set(ids)) != len(ids)):
+        if (
+            not ids
+            or any(isinstance(i, bool) or not isinstance(i, (int, np.integer)) or i < 0 for i in ids)
+            or len(set(ids)) != len(ids)
+        ):
             raise ValueError(f"ids must be a non-empty sequence of distinct non-negative ints, got {ids!r}")
         if dictionary not in _TAG_DICTIONARIES:
             raise ValueError(f"dictionary must be one of {tuple(_TAG_DICTIONARIES)}, got {dictionary!r}")
@@ -481,15 +571,16 @@ class TagDetector:
         # perimeter, 0.125 by default): the contour of the tag's white plate cut by the image border
         # is such a neighbour, and the tag was lost (test_tag_episode_plate_at_the_border).
         params.minMarkerDistanceRate = 0.02
-        self._detector = aruco.ArucoDetector(aruco.getPredefinedDictionary(getattr(aruco, _TAG_DICTIONARIES[dictionary])),
-                                             params)
+        self._detector = aruco.ArucoDetector(
+            aruco.getPredefinedDictionary(getattr(aruco, _TAG_DICTIONARIES[dictionary])), params
+        )
 
     @property
     def n_points(self) -> int:
         return 4 * len(self.ids)
 
     def reset(self, pixels=None) -> None:
-        """Nothing to reset: every frame is detected on its own (for ImageSensor's symmetry with DotTracker)."""
+        """Nothing to reset: every frame is detected on its own (symmetry with DotTracker)."""
 
     def detect(self, image) -> Track:
         if self.size is not None:
@@ -502,15 +593,21 @@ class TagDetector:
         status = ["not_found"] * self.n_points
         h, w = image.shape
         for scale in sorted({self.decimate, 1}, reverse=True):
-            small = image if scale == 1 else cv2.resize(image, (w // scale, h // scale), interpolation=cv2.INTER_AREA)
+            small = (
+                image
+                if scale == 1
+                else cv2.resize(image, (w // scale, h // scale), interpolation=cv2.INTER_AREA)
+            )
             corners, found, _ = self._detector.detectMarkers(small)
             for c, i in zip(corners, np.asarray(found).ravel() if found is not None else ()):
                 k = self.ids.index(int(i)) if int(i) in self.ids else -1
                 if k < 0 or status[4 * k] == "detected":
                     continue
                 # pixel c of the shrunk image is centred on scale c + (scale - 1) / 2 of the full one
-                out[4 * k:4 * k + 4] = np.asarray(c, dtype=np.float64).reshape(4, 2) * scale + (scale - 1) / 2
-                status[4 * k:4 * k + 4] = ["detected"] * 4
+                out[4 * k : 4 * k + 4] = (
+                    np.asarray(c, dtype=np.float64).reshape(4, 2) * scale + (scale - 1) / 2
+                )
+                status[4 * k : 4 * k + 4] = ["detected"] * 4
             if "not_found" not in status:
                 break
         found_rows = np.isfinite(out[:, 0])
@@ -542,12 +639,16 @@ class ImageSensor(_sim.Sensor):
         if not isinstance(renderer, Renderer):
             raise TypeError(f"renderer must be an ibvs.vision.Renderer, got {type(renderer).__name__}")
         if not isinstance(detector, (DotTracker, TagDetector)):
-            raise TypeError(f"detector must be an ibvs.vision.DotTracker or TagDetector, got {type(detector).__name__}")
+            raise TypeError(
+                f"detector must be an ibvs.vision.DotTracker or TagDetector, got {type(detector).__name__}"
+            )
         n = detector.n if isinstance(detector, DotTracker) else detector.n_points
         if n != len(renderer.target):
             raise ValueError(f"detector: it measures {n} points but the target has {len(renderer.target)}")
         if isinstance(detector, DotTracker) and detector.size != renderer.size:
-            raise ValueError(f"detector: image_size {detector.size} differs from the camera's {renderer.size}")
+            raise ValueError(
+                f"detector: image_size {detector.size} differs from the camera's {renderer.size}"
+            )
         self.renderer, self.detector, self.keep_frames = renderer, detector, bool(keep_frames)
         self.frames: list = []
         self.goal_image = None
@@ -604,13 +705,23 @@ def draw_points(image, detected=None, desired=None) -> np.ndarray:
     if desired is not None:
         for u, v in np.asarray(desired, dtype=np.float64).reshape(-1, 2):
             if np.isfinite([u, v]).all():
-                cv2.circle(rgb, (int(round(u * 16)), int(round(v * 16))), 6 * 16, (255, 60, 60), 1, cv2.LINE_AA, sh)
+                cv2.circle(
+                    rgb, (int(round(u * 16)), int(round(v * 16))), 6 * 16, (255, 60, 60), 1, cv2.LINE_AA, sh
+                )
     if detected is not None:
         for i, (u, v) in enumerate(np.asarray(detected, dtype=np.float64).reshape(-1, 2)):
             if np.isfinite([u, v]).all():
                 cv2.drawMarker(rgb, (int(round(u)), int(round(v))), (60, 255, 60), cv2.MARKER_CROSS, 10, 1)
-                cv2.putText(rgb, str(i), (int(round(u)) + 5, int(round(v)) - 5), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
-                            (60, 255, 60), 1, cv2.LINE_AA)
+                cv2.putText(
+                    rgb,
+                    str(i),
+                    (int(round(u)) + 5, int(round(v)) - 5),
+                    cv2.FONT_HERSHEY_SIMPLEX,
+                    0.4,
+                    (60, 255, 60),
+                    1,
+                    cv2.LINE_AA,
+                )
     return rgb
 
 

@@ -10,9 +10,9 @@ import pytest
 
 cv2 = pytest.importorskip("cv2")
 
-import ibvs  # noqa: E402
-from ibvs import sim, vision  # noqa: E402
-from ibvs.sim import cases  # noqa: E402
+import ibvs
+from ibvs import sim, vision
+from ibvs.sim import cases
 
 
 def camera_640(distortion=False):
@@ -24,8 +24,9 @@ def camera_640(distortion=False):
 def image_centroid(camera, target, pose_wc, center, radius, n=4000):
     """Area centroid (pixels) of the image of the disc (center (x, y) in the target plane, radius m)."""
     phi = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    pts = np.column_stack([center[0] + radius * np.cos(phi), center[1] + radius * np.sin(phi), np.zeros(n),
-                           np.ones(n)])
+    pts = np.column_stack(
+        [center[0] + radius * np.cos(phi), center[1] + radius * np.sin(phi), np.zeros(n), np.ones(n)]
+    )
     pc = (np.linalg.inv(pose_wc) @ np.asarray(target.pose) @ pts.T)[:3]
     px = camera.project((pc[:2] / pc[2]).T)
     x, y = px[:, 0], px[:, 1]
@@ -43,7 +44,7 @@ def projected(camera, target, pose_wc):
 
 def intensity_centroid(image, guess, half=30):
     u0, v0 = int(round(guess[0])), int(round(guess[1]))
-    win = image[v0 - half:v0 + half + 1, u0 - half:u0 + half + 1].astype(float)
+    win = image[v0 - half : v0 + half + 1, u0 - half : u0 + half + 1].astype(float)
     bg = np.median(win[[0, -1], :])
     w = np.maximum(win - bg, 0)
     ys, xs = np.indices(w.shape)
@@ -58,7 +59,7 @@ def gantry_pose(q):
 
 
 def orbit(pose_wc, target, r, dz=0.0):
-    """The camera turned by the rotation r (rx, ry, rz; rad) about the target's centre, then moved dz along its axis."""
+    """The camera turned by r (rx, ry, rz; rad) about the target's centre, then moved dz along its axis."""
     T = np.asarray(target.pose)
     return T @ sim.pose(r=r) @ np.linalg.inv(T) @ pose_wc @ sim.pose(t=(0, 0, dz))
 
@@ -70,7 +71,11 @@ def test_rendered_dot_centroids_match_the_dots_images(distorted):
     r = vision.Renderer(camera, target, "dots")
     goal = gantry_pose(GANTRY.goal)
     worst_area, worst_proj = 0.0, 0.0
-    for pose in (goal, orbit(goal, target, (0.5, -0.4, 0.5), -0.15), orbit(goal, target, (-0.45, 0.5, -2.5), 0.1)):
+    for pose in (
+        goal,
+        orbit(goal, target, (0.5, -0.4, 0.5), -0.15),
+        orbit(goal, target, (-0.45, 0.5, -2.5), 0.1),
+    ):
         img = r.render(pose)
         assert img.dtype == np.uint8 and img.shape == (480, 640)
         proj = projected(camera, target, pose)
@@ -209,8 +214,10 @@ def gantry_pair():
     c = GANTRY
     servo = ibvs.Servo(ibvs.Layout.stacked(4), gain=1.0)
     kw = dict(robot=c.robot, duration=c.duration, tolerance=1e-5)
-    return (sim.run(servo, c.camera, c.target, c.start, c.goal, **kw),
-            sim.run(servo, c.camera, c.target, c.start, c.goal, vision="dots", **kw))
+    return (
+        sim.run(servo, c.camera, c.target, c.start, c.goal, **kw),
+        sim.run(servo, c.camera, c.target, c.start, c.goal, vision="dots", **kw),
+    )
 
 
 def test_image_episode_gantry_distorted(gantry_pair):
@@ -220,7 +227,9 @@ def test_image_episode_gantry_distorted(gantry_pair):
     assert images.metrics.final_rotation_error < math.radians(0.1)
     assert images.history.q.shape[1] == 6
     # the same path as with exact points: within a few frames and 1 % of its length
-    assert abs(images.metrics.frames_to_converge - points.metrics.frames_to_converge) < 0.05 * len(points.history)
+    assert abs(images.metrics.frames_to_converge - points.metrics.frames_to_converge) < 0.05 * len(
+        points.history
+    )
     assert abs(images.metrics.path_length - points.metrics.path_length) < 0.01 * points.metrics.path_length
     # the tracker's centroids vs the projected centres over the run (px): the perspective of the
     # 1 cm dots moves their area centroids by up to ~0.25 px when tilted
@@ -251,11 +260,15 @@ def test_bad_input():
     with pytest.raises(TypeError, match="camera"):
         vision.Renderer("cam", tgt)
     with pytest.raises(ValueError, match="planar"):
-        vision.Renderer(cam, sim.Target(np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0.05]]), sim.pose(t=(0, 0, 1))))
+        vision.Renderer(
+            cam, sim.Target(np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0.05]]), sim.pose(t=(0, 0, 1)))
+        )
     with pytest.raises(ValueError, match="kind"):
         vision.Renderer(cam, tgt, "checkerboard")
     with pytest.raises(ValueError, match="tag"):
-        vision.Renderer(cam, sim.Target(np.array([[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0]]), sim.pose(t=(0, 0, 1))), "tag")
+        vision.Renderer(
+            cam, sim.Target(np.array([[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0]]), sim.pose(t=(0, 0, 1))), "tag"
+        )
     with pytest.raises(ValueError, match="dot_radius"):
         vision.Renderer(cam, tgt, dot_radius=0.2)
     r = vision.Renderer(cam, tgt)
@@ -274,35 +287,57 @@ def test_bad_input():
     with pytest.raises(ValueError, match="ids"):
         vision.TagDetector(ids=())
     with pytest.raises(TypeError, match="vision"):
-        sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision=3)
+        sim.run(
+            ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0),
+            cam,
+            tgt,
+            sim.pose(t=(0, 0, -0.1)),
+            np.eye(4),
+            vision=3,
+        )
     with pytest.raises(ValueError, match="kind"):
-        sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision="blobs")
+        sim.run(
+            ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0),
+            cam,
+            tgt,
+            sim.pose(t=(0, 0, -0.1)),
+            np.eye(4),
+            vision="blobs",
+        )
 
 
 # --- properties: finite or refused ---
 
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 _SMALL = ibvs.CameraModel(120.0, 120.0, 40.0, 30.0, 0.0, 0.0, 80.0, 60.0)
 _SMALL_TARGET = sim.Target.square(0.1, sim.pose(t=(0, 0, 0.6)))
-_RENDERERS = {k: vision.Renderer(_SMALL, _SMALL_TARGET, k, noise=1.0, blur=0.5, exposure=0.01) for k in vision.KINDS}
+_RENDERERS = {
+    k: vision.Renderer(_SMALL, _SMALL_TARGET, k, noise=1.0, blur=0.5, exposure=0.01) for k in vision.KINDS
+}
 _angles = st.floats(-4, 4, allow_nan=False)
 _offsets = st.floats(-2, 2, allow_nan=False)
 
 
 @settings(max_examples=40, deadline=None)
-@given(kind=st.sampled_from(vision.KINDS), t=st.tuples(_offsets, _offsets, _offsets),
-       r=st.tuples(_angles, _angles, _angles), twist=st.lists(st.floats(-50, 50), min_size=6, max_size=6))
+@given(
+    kind=st.sampled_from(vision.KINDS),
+    t=st.tuples(_offsets, _offsets, _offsets),
+    r=st.tuples(_angles, _angles, _angles),
+    twist=st.lists(st.floats(-50, 50), min_size=6, max_size=6),
+)
 def test_render_any_pose_is_an_image(kind, t, r, twist):
-    """Any finite pose (behind the plate, edge-on, far, inside it) gives a uint8 image of the camera's size."""
+    """Any finite pose (behind the plate, edge-on, far, inside it): a uint8 image of the camera's size."""
     img = _RENDERERS[kind].render(sim.pose(t=t, r=r), np.array(twist))
     assert img.dtype == np.uint8 and img.shape == (60, 80)
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), guesses=st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)),
-                                                        min_size=4, max_size=4))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    guesses=st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=4, max_size=4),
+)
 def test_trackers_on_any_image_are_finite_or_lost(seed, guesses):
     img = np.random.default_rng(seed).integers(0, 256, (60, 80), dtype=np.uint8)
     tr = vision.DotTracker(4, (80, 60))
@@ -342,10 +377,33 @@ def test_cli_run_vision_video(tmp_path, capsys):
     from ibvs.__main__ import main
 
     out = tmp_path / "run.mp4"
-    rc = main(["run", "--world", "free", "--case", "z-rotation", "--scheme", "polar", "--gain", "2", "--duration", "0.5",
-               "--vision", "dots", "--video", str(out)])
+    rc = main(
+        [
+            "run",
+            "--world",
+            "free",
+            "--case",
+            "z-rotation",
+            "--scheme",
+            "polar",
+            "--gain",
+            "2",
+            "--duration",
+            "0.5",
+            "--vision",
+            "dots",
+            "--video",
+            str(out),
+        ]
+    )
     text = capsys.readouterr().out
-    assert rc in (0, 1) and out.exists() and out.stat().st_size > 1000 and "video" in text and "(30 frames)" in text
+    assert (
+        rc in (0, 1)
+        and out.exists()
+        and out.stat().st_size > 1000
+        and "video" in text
+        and "(30 frames)" in text
+    )
     with pytest.raises(SystemExit) as e:  # --video without --vision: one line, exit 2
         main(["run", "--video", str(tmp_path / "x.mp4")])
     assert e.value.code == 2 and "needs --vision" in capsys.readouterr().err
@@ -365,3 +423,17 @@ def test_write_video_gif_and_png_frames(tmp_path):
     assert d.endswith("frames")
     with pytest.raises(ValueError, match="frames"):
         vision.write_video(tmp_path / "b.gif", [])
+
+
+def test_bench_vision_section(capsys):
+    from ibvs.bench import main
+
+    assert main(["--vision", "--frames", "30", "--json"]) == 0
+    import json
+
+    res = json.loads(capsys.readouterr().out)
+    names = [c["name"] for c in res["cases"]]
+    assert len(names) == 6 and names[0].startswith("render dots") and "image episode" in names[-1]
+    assert all(c["median_ms"] > 0 and c["budget_share"] > 0 for c in res["cases"])
+    assert res["dot_error_px"]["max"] < 0.2 and res["tag_error_px"]["max"] < 1.0
+    assert res["dot_error_px"]["lost_frames"] == 0 and res["tag_error_px"]["lost_frames"] == 0
