@@ -728,8 +728,8 @@ def draw_points(image, detected=None, desired=None) -> np.ndarray:
 def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) -> str:
     """Write the frames (uint8 grayscale) with the detected points (K, N, 2) and the desired ones (N, 2)
     drawn: an MP4 through imageio-ffmpeg when installed (extra ibvs[video]); otherwise, or for a .gif
-    path, a GIF (Pillow, through matplotlib's dependency) or PNG frames in a directory for any other
-    path. Returns the path written."""
+    path, a GIF (Pillow, which comes with matplotlib); PNG frames in a directory for any other path
+    or without Pillow. A fallback says so on stdout. Returns the path written."""
     import pathlib
 
     path = pathlib.Path(path)
@@ -743,7 +743,7 @@ def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) ->
             import imageio_ffmpeg
         except ImportError:
             gif = path.with_suffix(".gif")
-            print(f"imageio-ffmpeg is not installed (pip install 'ibvs[video]'): writing {gif} instead")
+            print(f"imageio-ffmpeg is not installed (pip install '.[video]'): writing {gif} instead")
             path = gif
         else:
             h, w = rgb[0].shape[:2]
@@ -754,11 +754,15 @@ def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) ->
             writer.close()
             return str(path)
     if path.suffix.lower() == ".gif":
-        from PIL import Image
-
-        ims = [Image.fromarray(f) for f in rgb]
-        ims[0].save(path, save_all=True, append_images=ims[1:], duration=int(round(1000 / fps)), loop=0)
-        return str(path)
+        try:
+            from PIL import Image
+        except ImportError:  # Pillow comes with matplotlib (ibvs[plot]); without it, PNG frames
+            path = path.with_suffix("")
+            print(f"Pillow is not installed (pip install '.[plot]'): writing PNG frames into {path}/ instead")
+        else:
+            ims = [Image.fromarray(f) for f in rgb]
+            ims[0].save(path, save_all=True, append_images=ims[1:], duration=int(round(1000 / fps)), loop=0)
+            return str(path)
     cv2 = _cv2()
     path.mkdir(parents=True, exist_ok=True)
     for k, f in enumerate(rgb):

@@ -437,3 +437,52 @@ def test_bench_vision_section(capsys):
     assert all(c["median_ms"] > 0 and c["budget_share"] > 0 for c in res["cases"])
     assert res["dot_error_px"]["max"] < 0.2 and res["tag_error_px"]["max"] < 1.0
     assert res["dot_error_px"]["lost_frames"] == 0 and res["tag_error_px"]["lost_frames"] == 0
+
+
+# --- Python sensors through the C++ hook ---
+
+
+class _Sensor(sim.Sensor):
+    """Projections, point 2 lost from frame `drop`, an exception at frame `fail`, a bad shape at `bad`."""
+
+    def __init__(self, drop=None, fail=None, bad=None):
+        super().__init__()
+        self.drop, self.fail, self.bad, self.seeds = drop, fail, bad, []
+
+    def reset(self, seed):
+        self.seeds.append(seed)
+
+    def measure(self, frame, pose, projected, twist):
+        if frame == self.fail:
+            raise RuntimeError("camera unplugged")
+        if frame == self.bad:
+            return np.zeros((3, 2))
+        out = np.array(projected)
+        if self.drop is not None and 0 <= self.drop <= frame:
+            out[2] = np.nan
+        return out
+
+
+def test_python_sensor_outcomes_and_errors():
+    c = cases.gantry_general_motion()
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
+
+    def run(sensor, **kw):
+        return sim.run(
+            servo, c.camera, c.target, c.start, c.goal, robot=c.robot, duration=1.0, vision=sensor, **kw
+        )
+
+    plain = sim.run(servo, c.camera, c.target, c.start, c.goal, robot=c.robot, duration=1.0)
+    s = _Sensor()
+    same = run(s, seed=5)
+    assert np.array_equal(same.history.pose, plain.history.pose) and s.seeds == [5]
+    lost = run(_Sensor(drop=20))
+    assert (lost.status.outcome, lost.status.frame, lost.status.point) == ("lost_feature", 20, 2)
+    with pytest.raises(RuntimeError, match="unplugged"):
+        run(_Sensor(fail=7))
+    with pytest.raises(RuntimeError, match="unplugged"):
+        run(_Sensor(fail=-1))  # at the goal
+    with pytest.raises(ValueError, match=r"shape \(4, 2\)"):
+        run(_Sensor(bad=3))
+    with pytest.raises(TypeError, match="vision"):
+        run(object())
