@@ -220,6 +220,19 @@ class Renderer:
             self.background = self.TAG_BACKGROUND
         self._build_texture(cv2, lo, hi, xy)
         self._build_lens()
+        self._target_pose = np.asarray(target.pose, dtype=np.float64)
+        self._centre = np.append(xy.mean(0), 1.0)
+        rows, cols = self._pyramid[0].shape
+        o, ex, ey = self._origin, cols * self._d0, rows * self._d0
+        self._corners = np.array(
+            [[o[0], o[1], 1], [o[0] + ex, o[1], 1], [o[0] + ex, o[1] + ey, 1], [o[0], o[1] + ey, 1]]
+        )
+        cam = camera
+        self._K_pinhole = np.array(
+            [[cam.px, 0, cam.u0 + self._shift[0]], [0, cam.py, cam.v0 + self._shift[1]], [0, 0, 1.0]]
+        )
+        t = np.linspace(0.0, 1.0, 16)
+        self._edge_t = t
 
     def reseed(self, seed: int) -> None:
         """Restart the noise generator."""
@@ -289,36 +302,73 @@ class Renderer:
         self._map = (m[:, 0].reshape(h, w).astype(np.float32), m[:, 1].reshape(h, w).astype(np.float32))
 
     # -- per frame --
-    def _pinhole(self, cv2, pose_wc: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
-        """The ideal pinhole image (float32) of the plate from world <- camera pose_wc."""
-        T_ct = np.linalg.inv(pose_wc) @ np.asarray(self.target.pose)
-        R, t = T_ct[:3, :3], T_ct[:3, 3]
+    def _homography(self, pose_wc: np.ndarray) -> Optional[np.ndarray]:
+        """Target plane (x, y, 1) -> pinhole pixel, or None when the camera sees the plate's blank back
+        (it is behind the plate's plane, or on it)."""
+        T_wt = self._target_pose
+        R_cw = pose_wc[:3, :3].T  # rigid inverse
+        R = R_cw @ T_wt[:3, :3]
+        t = R_cw @ (T_wt[:3, 3] - pose_wc[:3, 3])
+        # the camera centre in the target frame is -R^T t: in front when its z < 0
+        if (R[:, 2] @ t) <= 0 or not np.isfinite(t).all():
+            return None
+        Hp = self._K_pinhole @ np.column_stack([R[:, 0], R[:, 1], t])
+        return Hp
+
+    def _box(self, Hp: np.ndarray) -> Optional[Tuple[int, int, int, int]]:
+        """The pinhole image's box (x0, y0, x1, y1) holding the plate, or None (the whole image) when
+        part of the plate is behind the camera."""
+        p = self._corners @ Hp.T
+        if not (p[:, 2] > 1e-9).all():
+            return None
+        q = p[:, :2] / p[:, 2:]
         W, H = self._pinhole_size
-        cam = self.camera
-        Kp = np.array(
-            [[cam.px, 0, cam.u0 + self._shift[0]], [0, cam.py, cam.v0 + self._shift[1]], [0, 0, 1.0]]
-        )
-        Hp = Kp @ np.column_stack([R[:, 0], R[:, 1], t])  # target plane (x, y, 1) -> pinhole pixel
-        if (np.linalg.inv(T_ct)[2, 3]) >= 0 or not np.isfinite(Hp).all():
-            # the camera is behind the plate (or on its plane): it sees the plate's blank back
-            img = np.full((H, W), self.background, np.float32)
-            return img
-        # level: the finest whose texels are at least ~0.7 image pixel at the target's centre
-        c = np.asarray(self.target.points)[:, :2].mean(0)
-        p = Hp @ np.array([c[0], c[1], 1.0])
-        J = (Hp[:2, :2] * p[2] - np.outer(p[:2], Hp[2, :2])) / p[2] ** 2  # d pixel / d (x, y) in m
-        ppm = math.sqrt(abs(np.linalg.det(J)))
-        level = int(np.clip(math.ceil(math.log2(0.7 / max(ppm * self._d0, 1e-12))), 0, self.LEVELS - 1))
+        x0, y0 = np.clip(np.floor(q.min(0)) - 2, 0, [W, H]).astype(int)
+        x1, y1 = np.clip(np.ceil(q.max(0)) + 3, 0, [W, H]).astype(int)
+        return int(x0), int(y0), int(x1), int(y1)
+
+    def _warp(self, cv2, Hp: np.ndarray, box: Tuple[int, int, int, int]) -> np.ndarray:
+        """The pinhole image (float32) of the plate over box, from the pyramid level whose texels are
+        about 0.7 image pixel or more at the target's centre."""
+        p = Hp @ self._centre
+        level = 0
+        if p[2] > 1e-9:
+            J = (Hp[:2, :2] * p[2] - np.outer(p[:2], Hp[2, :2])) / p[2] ** 2  # d pixel / d (x, y), px per m
+            ppm = math.sqrt(abs(np.linalg.det(J)))
+            level = int(np.clip(math.ceil(math.log2(0.7 / max(ppm * self._d0, 1e-12))), 0, self.LEVELS - 1))
         d = self._d0 * 2**level
         S = np.array([[d, 0, self._origin[0] + 0.5 * d], [0, d, self._origin[1] + 0.5 * d], [0, 0, 1.0]])
+        x0, y0, x1, y1 = box
+        shift = np.array([[1.0, 0, -x0], [0, 1, -y0], [0, 0, 1]])
         return cv2.warpPerspective(
             self._pyramid[level],
-            Hp @ S,
-            (W, H),
+            shift @ Hp @ S,
+            (x1 - x0, y1 - y0),
             flags=cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=float(self.background),
         )
+
+    def _sensor_box(self, box: Tuple[int, int, int, int]) -> Tuple[int, int, int, int]:
+        """The sensor pixels whose lens map reads the pinhole box (its boundary through the distortion,
+        sampled, plus a margin); the whole sensor when part of it cannot be mapped."""
+        W, H = self.size
+        if self._map is None:
+            return box
+        x0, y0, x1, y1 = box
+        t = self._edge_t
+        u = np.concatenate([x0 + (x1 - x0) * t, x0 + (x1 - x0) * t, np.full_like(t, x0), np.full_like(t, x1)])
+        v = np.concatenate([np.full_like(t, y0), np.full_like(t, y1), y0 + (y1 - y0) * t, y0 + (y1 - y0) * t])
+        cam = self.camera
+        xy = np.empty((4 * len(t), 2))
+        xy[:, 0] = (u - self._shift[0] - cam.u0) / cam.px
+        xy[:, 1] = (v - self._shift[1] - cam.v0) / cam.py
+        px = cam.project(xy, invalid="nan")
+        if not np.isfinite(px).all():
+            return 0, 0, W, H
+        sx0, sy0 = np.clip(np.floor(px.min(0)) - 3, 0, [W, H]).astype(int)
+        sx1, sy1 = np.clip(np.ceil(px.max(0)) + 4, 0, [W, H]).astype(int)
+        return int(sx0), int(sy0), int(sx1), int(sy1)
 
     def render(self, pose_wc, twist=None) -> np.ndarray:
         """The camera's uint8 image (height, width) at world <- camera pose_wc (4, 4); twist (6,) the camera's
@@ -327,25 +377,50 @@ class Renderer:
         pose_wc = np.asarray(pose_wc, dtype=np.float64)
         if pose_wc.shape != (4, 4) or not np.isfinite(pose_wc).all():
             raise ValueError(f"pose_wc must be a finite 4x4 pose, got shape {pose_wc.shape}")
-        img = self._pinhole(cv2, pose_wc)
+        poses = [pose_wc]
         if self.exposure > 0 and twist is not None:
             v = np.asarray(twist, dtype=np.float64)
             if v.shape != (6,) or not np.isfinite(v).all():
                 raise ValueError(f"twist must be a finite (6,) camera twist, got shape {v.shape}")
             if np.any(v != 0):  # the exposure ends at the capture: poses over [-exposure, 0]
-                for j in range(1, self.MOTION_SAMPLES):
-                    s = -self.exposure * j / (self.MOTION_SAMPLES - 1)
-                    img += self._pinhole(cv2, pose_wc @ se3_exp(v * s))
-                img *= 1.0 / self.MOTION_SAMPLES
-        if self._map is not None:
-            img = cv2.remap(
-                img,
-                self._map[0],
-                self._map[1],
-                cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_CONSTANT,
-                borderValue=float(self.background),
-            )
+                poses += [
+                    pose_wc @ se3_exp(v * (-self.exposure * j / (self.MOTION_SAMPLES - 1)))
+                    for j in range(1, self.MOTION_SAMPLES)
+                ]
+        W, H = self.size
+        img = np.full((H, W), self.background, np.float32)
+        Hs = [Hp for Hp in (self._homography(p) for p in poses)]
+        visible = [Hp for Hp in Hs if Hp is not None]
+        if visible:
+            # only the part of the images the plate covers is drawn (the union over the exposure)
+            boxes = [self._box(Hp) for Hp in visible]
+            Wp, Hpix = self._pinhole_size
+            if any(b is None for b in boxes):
+                box = (0, 0, Wp, Hpix)
+            else:
+                box = tuple(int(f(v)) for f, v in zip((min, min, max, max), zip(*boxes)))
+            if box[2] > box[0] and box[3] > box[1]:
+                pin = self._warp(cv2, visible[0], box)
+                if (
+                    len(Hs) > 1
+                ):  # motion blur: the mean over the exposure (sub-frames seeing the back: background)
+                    for Hp in visible[1:]:
+                        pin += self._warp(cv2, Hp, box)
+                    pin += float(self.background) * (len(Hs) - len(visible))
+                    pin *= 1.0 / len(Hs)
+                sx0, sy0, sx1, sy1 = self._sensor_box(box)
+                if sx1 > sx0 and sy1 > sy0:
+                    if self._map is None:
+                        img[sy0:sy1, sx0:sx1] = pin[sy0 - box[1] : sy1 - box[1], sx0 - box[0] : sx1 - box[0]]
+                    else:
+                        img[sy0:sy1, sx0:sx1] = cv2.remap(
+                            pin,
+                            self._map[0][sy0:sy1, sx0:sx1] - np.float32(box[0]),
+                            self._map[1][sy0:sy1, sx0:sx1] - np.float32(box[1]),
+                            cv2.INTER_LINEAR,
+                            borderMode=cv2.BORDER_CONSTANT,
+                            borderValue=float(self.background),
+                        )
         if self.blur > 0:
             img = cv2.GaussianBlur(img, (0, 0), self.blur)
         if self.noise > 0:
