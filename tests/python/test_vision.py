@@ -486,3 +486,17 @@ def test_python_sensor_outcomes_and_errors():
         run(_Sensor(bad=3))
     with pytest.raises(TypeError, match="vision"):
         run(object())
+
+
+@pytest.mark.parametrize("depth, first, last", [("pose", 1e-3, 1e-3), ("estimated", 0.5, 2e-3)])
+def test_image_episode_depth_modes(depth, first, last):
+    """Depths from the tracked dots: the planar pose at once, the online estimate after its prior."""
+    c = cases.general_motion()
+    cam = vision.image_camera(c.camera)
+    servo = ibvs.Servo(ibvs.Layout.stacked(4), gain=1.0)
+    r = sim.run(servo, cam, c.target, c.start, c.goal, duration=1.0, depth=depth, noise=0.05, vision="dots")
+    assert r.status.outcome == "timeout" and len(r.history) == 60
+    pw = np.column_stack([np.asarray(c.target.world_points()), np.ones(4)])
+    true = np.array([(np.linalg.inv(p) @ pw.T)[2] for p in r.history.pose])
+    rel = np.abs(r.history.depth / true - 1)
+    assert rel[0].max() < first and rel[-1].max() < last
