@@ -6,7 +6,9 @@
 #include "check.hpp"
 #include "sim_cases.hpp"
 
+#include <limits>
 #include <memory>
+#include <string>
 
 using namespace ibvs;
 using namespace ibvs::sim;
@@ -18,7 +20,8 @@ namespace {
 class TestSensor final : public Sensor {
  public:
   Eigen::Vector2d bias = Eigen::Vector2d::Zero();
-  int drop = -1, drop_at = -1, fail_at = -1;
+  static constexpr int never = -100;  // frame -1 is the goal
+  int drop = -1, drop_at = never, fail_at = never;
   int calls = 0, goal_calls = 0;
   void reset(std::uint64_t) noexcept override { calls = goal_calls = 0; }
   bool measure(const SensorFrame& f, Eigen::Ref<Points> m) noexcept override {
@@ -27,7 +30,8 @@ class TestSensor final : public Sensor {
     if (f.frame == fail_at) return false;
     m = *f.projected;
     m.colwise() += bias;
-    if (drop >= 0 && f.frame >= drop_at) m.col(drop).setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (drop >= 0 && drop_at != never && f.frame >= drop_at)
+      m.col(drop).setConstant(std::numeric_limits<double>::quiet_NaN());
     return true;
   }
 };
@@ -90,11 +94,12 @@ void lost_point_is_an_outcome() {
   CHECK(r.history.frames == 31 && std::isnan(r.history.measured(30, 4)) && std::isfinite(r.history.projected(30, 4)));
   // a failing sensor ends the episode as diverged at that frame
   s->drop = -1;
+  s->drop_at = TestSensor::never;
   s->fail_at = 12;
   const EpisodeResult& f = e.run(half_turn_z(), Pose::Identity());
   CHECK(f.status.outcome == Outcome::diverged && f.status.frame == 12);
   // a goal the sensor cannot measure is refused
-  s->fail_at = -1;
+  s->fail_at = TestSensor::never;
   s->drop = 1;
   s->drop_at = -1;
   CHECK_THROWS(e.run(half_turn_z(), Pose::Identity()));
