@@ -100,6 +100,55 @@ class PyRobot : public Robot {
   }
 };
 
+// ibvs.sim.Sensor for Python subclasses (ibvs.vision.ImageSensor): measure()
+// calls the subclass's measure(frame, pose, projected, twist) -> (N, 2) pixels
+// (NaN rows: lost points) and reset() its reset(seed). A Python exception is
+// kept like PyRobot's: measure() returns false (the episode stops, diverged)
+// and the binding raises it after the run (or at once for the goal frame).
+class PySensor : public Sensor {
+ public:
+  mutable std::exception_ptr error;
+
+  void reset(std::uint64_t seed) noexcept override {
+    try {
+      py::gil_scoped_acquire gil;
+      error = nullptr;
+      py::function f = py::get_override(static_cast<const Sensor*>(this), "reset");
+      if (f) f(seed);
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
+  }
+
+  bool measure(const SensorFrame& frame, Eigen::Ref<Points> measured) noexcept override {
+    if (error) return false;  // reset() failed
+    try {
+      py::gil_scoped_acquire gil;
+      py::function f = py::get_override(static_cast<const Sensor*>(this), "measure");
+      if (!f) throw py::type_error("a subclass of ibvs.sim.Sensor must define measure(frame, pose, projected, twist)");
+      const Eigen::Index n = measured.cols();
+      Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> proj = frame.projected->transpose();
+      const py::object r = f(frame.frame, Eigen::Matrix4d(*frame.pose), proj, Eigen::VectorXd(*frame.twist));
+      const CArray a = as_array(r, "measure(...) (the measured points)");
+      if (a.ndim() != 2 || a.shape(0) != n || a.shape(1) != 2)
+        throw py::value_error("measure(...) must return the measured points with shape (" + std::to_string(n) +
+                              ", 2), got " + shape_of(a));
+      measured = Eigen::Map<const Eigen::Matrix<double, 2, Eigen::Dynamic>>(a.data(), 2, n);
+      return true;
+    } catch (...) {
+      if (!error) error = std::current_exception();
+      return false;
+    }
+  }
+
+  void raise() const {
+    if (!error) return;
+    std::exception_ptr e = error;
+    error = nullptr;
+    std::rethrow_exception(e);
+  }
+};
+
 // kinematics() of any robot from Python: (T_we, J), or the robot's exception.
 py::tuple kinematics_of(const Robot& r, const JointVector& q) {
   Pose T;
@@ -192,6 +241,8 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
   d["uv"] = rows_of(h.uv, k, {n, 2});
   d["rtheta"] = rows_of(h.rtheta, k, {n, 2});
   d["depth"] = rows_of(h.depth, k, {n});
+  d["measured"] = rows_of(h.measured, k, {n, 2});
+  d["projected"] = rows_of(h.projected, k, {n, 2});
   d["error"] = rows_of(h.error, k, {m});
   d["error_norm"] = rows_of(h.error_norm, k);
   d["sigma_min"] = rows_of(h.sigma_min, k);
@@ -369,13 +420,27 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
             return g;
           }));
 
+  py::class_<Sensor, PySensor, std::shared_ptr<Sensor>>(s, "Sensor", R"(What the simulated camera reports each frame, for ibvs.sim.run(..., vision=...).
+
+Subclass it in Python (ibvs.vision.ImageSensor is one) and define
+  measure(frame, pose, projected, twist) -> (N, 2) measured points, pixels (measurement units);
+                 a NaN row = that point is lost (the episode ends as lost_feature, its index)
+  reset(seed)    (optional) called at the start of every run with the run's seed
+frame is -1 for the goal image (teach by showing), then 0, 1, ...; pose (4, 4) world <- camera;
+projected (N, 2) the true projections (to initialise tracks at frames -1 and 0 only, as a user
+clicks on the dots); twist (6,) the camera twist commanded at the previous frame (zero at frames
+-1 and 0), the motion during the exposure. The default measurement (no sensor) is the projection
+plus the run's Gaussian noise. The episode loop holds the GIL for such a sensor; an exception in
+it stops the episode and is raised by run().)")
+      .def(py::init([]() { return std::make_shared<PySensor>(); }));
+
   s.def(
       "_run",
       [](py::handle servo, const CameraModel& camera, const Target& target, py::handle start, py::handle goal,
           py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain,
-          double standoff_ratio) {
+          double standoff_ratio, py::handle sensor) {
         EpisodeOptions o;
         o.duration = duration;
         o.noise = noise;
@@ -390,6 +455,19 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
         o.boundary_margin = boundary_margin;
         o.boundary_gain = boundary_gain;
         o.standoff_ratio = standoff_ratio;
+        std::shared_ptr<Sensor> py_sensor_held;
+        PySensor* py_sensor = nullptr;
+        if (!sensor.is_none()) {
+          if (!py::isinstance<Sensor>(sensor))
+            throw py::type_error("sensor must be an ibvs.sim.Sensor (e.g. an ibvs.vision.ImageSensor) or None, got " +
+                                 std::string(py::str(py::type::handle_of(sensor).attr("__name__"))));
+          py_sensor_held = sensor.cast<std::shared_ptr<Sensor>>();
+          py_sensor = dynamic_cast<PySensor*>(py_sensor_held.get());
+        }
+        // A Python sensor's exception, raised instead of the episode's own error or result.
+        const auto raise_sensor = [&] {
+          if (py_sensor) py_sensor->raise();
+        };
         AnyServo sv = servo_copy(servo);
         if (!robot.is_none()) {
           if (!py::isinstance<Robot>(robot))
@@ -409,25 +487,34 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
           const JointVector qg = goal_joints ? joint_vector_arg(goal, "goal", n) : JointVector();
           const Pose pg = goal_joints ? Pose() : pose_arg(goal, "goal");
           Episode e(std::move(sv), camera, target, held, o);
+          if (py_sensor_held) e.set_sensor(py_sensor_held);
           const EpisodeResult* r = nullptr;
           try {
             std::optional<py::gil_scoped_release> release;
-            if (!py_robot) release.emplace();
+            if (!py_robot && !py_sensor) release.emplace();
             r = goal_joints ? &e.run(qs, qg) : &e.run(qs, pg);
           } catch (const std::invalid_argument&) {
             if (py_robot) py_robot->raise();  // the robot's own error, raised in kinematics()
+            raise_sensor();
             throw;
           }
           if (py_robot) py_robot->raise();
+          raise_sensor();
           return result_dict(*r, true);
         }
         const Pose ps = pose_arg(start, "start"), pg = pose_arg(goal, "goal");
         Episode e(std::move(sv), camera, target, o);
+        if (py_sensor_held) e.set_sensor(py_sensor_held);
         const EpisodeResult* r;
-        {
-          py::gil_scoped_release release;
+        try {
+          std::optional<py::gil_scoped_release> release;
+          if (!py_sensor) release.emplace();
           r = &e.run(ps, pg);
+        } catch (const std::invalid_argument&) {
+          raise_sensor();
+          throw;
         }
+        raise_sensor();
         return result_dict(*r, false);
       },
       py::arg("servo"), py::arg("camera"), py::arg("target"), py::arg("start"), py::arg("goal"),
@@ -435,5 +522,6 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
       py::arg("depth") = "exact", py::arg("seed") = 0, py::arg("tolerance") = 1e-4, py::arg("max_depth_ratio") = 10.0,
       py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
       py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1, py::arg("standoff_ratio") = 0.05,
+      py::arg("sensor") = py::none(),
       "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
 }

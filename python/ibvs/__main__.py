@@ -63,6 +63,12 @@ def build_parser() -> argparse.ArgumentParser:
     one.add_argument("--plot", type=a.figure_file, metavar="FILE", help="save the episode's figure (PNG, PDF, SVG)")
     one.add_argument("--animate", type=a.animation_file, metavar="FILE",
                      help="write an animation: camera view and 3D scene (.gif, or .mp4 with imageio-ffmpeg)")
+    one.add_argument("--vision", choices=["dots", "tag"],
+                     help="close the loop through rendered images: white dots (tracked) or an AprilTag 36h11 "
+                          "(cv2.aruco); a normalised camera becomes 640x480 with f = 800 px (needs ibvs[vision])")
+    one.add_argument("--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
+                     help="with --vision: the camera frames with detected (green) and desired (red) points, "
+                          ".mp4 (imageio-ffmpeg; else a GIF, with a message) or .gif")
     one.add_argument("--speed", type=a.number(0, 1000, open_lo=True), default=1.0,
                      help="animation speed: simulated seconds per second of video (default 1, real time)")
     one.add_argument("--seed", type=a.number(0, SEED_MAX, integer=True), default=0, help="seed of the noise")
@@ -248,9 +254,23 @@ def _run(args, parser) -> int:
                             f"({frames} frames)")
     if (args.depth or reproduce.DEPTH[args.world]) == "pose" and not c.target.planar:
         a.fail(prog, "argument --depth: pose needs a planar target")
+    sensor = None
+    if args.video and not args.vision:
+        a.fail(prog, "argument --video: needs --vision dots or --vision tag")
+    if args.vision:
+        try:
+            from . import vision
+        except ImportError as e:
+            a.fail(prog, f"argument --vision: {e}")
+        try:
+            sensor = vision.ImageSensor.for_target(vision.image_camera(c.camera), c.target, args.vision,
+                                                   keep_frames=bool(args.video))
+        except ValueError as e:
+            a.fail(prog, f"argument --vision: {e}")
     case_obj, result = reproduce.run_one(args.world, case, args.scheme, duration=duration, noise=args.noise,
                                          latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
-                                         tolerance=args.tolerance, case_object=c, angle_wrap=args.angle_wrap)
+                                         tolerance=args.tolerance, case_object=c, angle_wrap=args.angle_wrap,
+                                         vision=sensor)
     row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
     from .schemes import TITLES
 
@@ -270,6 +290,14 @@ def _run(args, parser) -> int:
 
         n = plots.animate(result, args.animate, labels=[title], speed=args.speed)
         print(f"  animation          {args.animate} ({n} frames)")
+    if args.video:
+        from . import vision
+
+        cam = sensor.renderer.camera
+        pixels = result.history.measured
+        desired = cam.project(result.uv_desired)
+        written = vision.write_video(args.video, sensor.frames, pixels, desired, fps=cam.fps)
+        print(f"  video              {written} ({len(sensor.frames)} frames)")
     return 0 if result.status.outcome == "converged" else 1
 
 

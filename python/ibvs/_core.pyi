@@ -485,6 +485,13 @@ class sim:
         def end_effector(self, q: _ArrayLike) -> _FloatArray: ...
         def manipulability(self, q: _ArrayLike) -> float: ...
 
+    class Sensor:
+        """What the simulated camera reports each frame (ibvs.sim.run(..., vision=...)). Subclass it and
+        define measure(frame, pose, projected, twist) -> (N, 2) pixels (NaN row = lost point) and
+        optionally reset(seed); ibvs.vision.ImageSensor is one."""
+
+        def __init__(self) -> None: ...
+
     @staticmethod
     def _run(
         servo: Union[Servo, PartitionedServo],
@@ -506,5 +513,6 @@ class sim:
         boundary_margin: float = 0.0,
         boundary_gain: float = 0.1,
         standoff_ratio: float = 0.05,
+        sensor: sim.Sensor | None = None,
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""

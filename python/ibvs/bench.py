@@ -12,6 +12,11 @@ RuntimeError says otherwise). Each case is warmed up, then timed call by call
 with ``time.perf_counter_ns`` (the timer's own median cost subtracted): median,
 p99 and max in microseconds, and calls/s from a batched loop. A few binding
 baselines show where the time of a call goes.
+
+``--vision`` times the image loop instead (ibvs.vision, needs ``ibvs[vision]``): on the gantry's
+distorted 640x480 camera, per frame, rendering the dots, tracking them, rendering + detecting the
+AprilTag, one servo step from pixels, and a whole image episode (--frames frames) per frame; each
+with its share of the 16.7 ms frame budget at 60 Hz.
 """
 
 from __future__ import annotations
@@ -248,6 +253,117 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+FRAME_BUDGET_MS = 1000.0 / 60.0
+
+
+def run_vision(frames: int = 300) -> dict[str, Any]:
+    """Per-frame times (ms: median, p99, max, share of the 60 Hz budget) of the image loop's parts."""
+    import cv2
+
+    from . import sim, vision
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # one thread: the CPU time is the work, whatever else the host runs
+    try:
+        return _run_vision(frames, cv2, sim, vision)
+    finally:
+        cv2.setNumThreads(threads)
+
+
+def _run_vision(frames, cv2, sim, vision) -> dict[str, Any]:
+    case = sim.cases.gantry_general_motion()
+    cam, target, robot = case.camera, case.target, case.robot
+    poses = [robot.camera(case.start + (case.goal - case.start) * k / frames) for k in range(frames)]
+    dots = vision.Renderer(cam, target, "dots", noise=1.0)
+    tag = vision.Renderer(cam, target, "tag", noise=1.0)
+    images = [dots.render(p) for p in poses]
+    tags = [tag.render(p) for p in poses]
+    truth = [cam.project(_project(p, target)) for p in poses]
+    tracker = vision.DotTracker(4, dots.size)
+    detector = vision.TagDetector((0,), image_size=tag.size)
+    servo = ibvs.Servo(ibvs.Layout.stacked(4), gain=1.0, camera=cam)
+    desired = truth[-1]
+    z = np.full(4, 0.6)
+
+    cpu = {}
+
+    def timed(fn, n, name):
+        """Wall time per call (ms); the mean CPU time of this thread per call goes into cpu[name]."""
+        out = np.empty(n)
+        c0 = time.thread_time()
+        for k in range(n):
+            t0 = time.perf_counter()
+            fn(k)
+            out[k] = time.perf_counter() - t0
+        cpu[name] = (time.thread_time() - c0) / n * 1e3
+        return out * 1e3
+
+    rows = {}
+    name = "render dots (640x480, distorted, noise)"
+    rows[name] = timed(lambda k: dots.render(poses[k]), frames, name)
+    tracker.reset(truth[0])
+    errors = []
+
+    def track(k):
+        t = tracker.track(images[k])
+        errors.append(np.abs(t.pixels - truth[k]).max())
+
+    rows["track 4 dots"] = timed(track, frames, "track 4 dots")
+    rows["render tag"] = timed(lambda k: tag.render(poses[k]), frames, "render tag")
+    tag_errors = []
+
+    def detect(k):
+        t = detector.detect(tags[k])
+        tag_errors.append(np.abs(t.pixels - truth[k]).max())
+
+    name = "detect tag (cv2.aruco, sub-pixel)"
+    rows[name] = timed(detect, frames, name)
+    rows["servo step from pixels (update_pixels)"] = timed(
+        lambda k: servo.update_pixels(truth[k], z, desired), frames, "servo step from pixels (update_pixels)")
+    servo_ep = ibvs.Servo(ibvs.Layout.stacked(4), gain=1.0)
+    t0, c0 = time.perf_counter(), time.thread_time()
+    r = sim.run(servo_ep, cam, target, case.start, case.goal, robot=robot, duration=frames / cam.fps,
+                tolerance=0.0, vision="dots")
+    episode_ms = (time.perf_counter() - t0) * 1e3
+    episode_cpu_ms = (time.thread_time() - c0) * 1e3
+    out = {"frames": frames, "budget_ms": FRAME_BUDGET_MS, "opencv_threads": cv2.getNumThreads(), "cases": []}
+    for name, t in rows.items():
+        med = float(np.median(t))
+        out["cases"].append({"name": name, "median_ms": med, "p99_ms": float(np.percentile(t, 99)),
+                             "max_ms": float(t.max()), "cpu_ms": cpu[name], "budget_share": med / FRAME_BUDGET_MS})
+    per_frame = episode_ms / len(r.history)
+    out["cases"].append({"name": f"image episode, per frame ({len(r.history)} frames, gantry, dots)",
+                         "median_ms": per_frame, "p99_ms": float("nan"), "max_ms": float("nan"),
+                         "cpu_ms": episode_cpu_ms / len(r.history), "budget_share": per_frame / FRAME_BUDGET_MS})
+    # over the frames where every point was measured (lost: frames with a point lost)
+    for key, e in (("dot_error_px", errors), ("tag_error_px", tag_errors)):
+        e = np.asarray(e)
+        out[key] = {"median": float(np.nanmedian(e)) if np.isfinite(e).any() else float("nan"),
+                    "max": float(np.nanmax(e)) if np.isfinite(e).any() else float("nan"),
+                    "lost_frames": int(np.isnan(e).sum())}
+    return out
+
+
+def _project(pose_wc, target) -> np.ndarray:
+    pw = np.column_stack([np.asarray(target.world_points()), np.ones(len(target))])
+    pc = (np.linalg.inv(pose_wc) @ pw.T)[:3]
+    return (pc[:2] / pc[2]).T
+
+
+def format_vision(res: dict[str, Any]) -> str:
+    lines = [f"vision, {res['frames']} frames, ms per frame: wall median / p99 / max, share of the "
+             f"{res['budget_ms']:.1f} ms budget at 60 Hz, and the CPU time of this thread (mean)",
+             f"  {'case':<58} {'median':>8} {'p99':>8} {'max':>8} {'budget':>7} {'cpu':>8}"]
+    for c in res["cases"]:
+        lines.append(f"  {c['name']:<58} {c['median_ms']:8.3f} {c['p99_ms']:8.3f} {c['max_ms']:8.3f} "
+                     f"{100 * c['budget_share']:6.1f}% {c['cpu_ms']:8.3f}")
+    d, t = res["dot_error_px"], res["tag_error_px"]
+    lines.append(f"  detection error vs the true projection (px): dots median {d['median']:.3f} max {d['max']:.3f}"
+                 f" ({d['lost_frames']} frames with a dot lost); tag corners median {t['median']:.3f} max "
+                 f"{t['max']:.3f} ({t['lost_frames']} frames without the tag)")
+    return "\n".join(lines)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ._args import Parser, number
 
@@ -259,6 +375,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--damping", type=number(0, 1e6, open_lo=True), default=0.01, help="lambda > 0 (default 0.01)")
     p.add_argument("--gain", type=number(0, 1e6, open_lo=True), default=0.5, help="gain > 0 (default 0.5)")
     p.add_argument("--json", action="store_true", help="print one JSON line instead of the table")
+    p.add_argument("--vision", action="store_true",
+                   help="time the image loop (render, track, detect, servo, image episode; needs ibvs[vision])")
+    p.add_argument("--frames", type=number(2, 100000, integer=True), default=300,
+                   help="frames per vision case (2 to 1e5; default 300)")
     return p
 
 
@@ -267,6 +387,10 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
         argv = argv[1:]
     args = build_parser().parse_args(argv)
+    if args.vision:
+        res = run_vision(args.frames)
+        print(json.dumps(res) if args.json else format_vision(res))
+        return 0
     res = run(args.iterations, args.n, args.damping, args.gain)
     print(json.dumps(res) if args.json else format_table(res))
     return 0

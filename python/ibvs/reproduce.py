@@ -117,19 +117,22 @@ def make_case(world: str, case: str):
 
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
             latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
-            tolerance: float = TOLERANCE, case_object=None, angle_wrap: str = "consistent"):
+            tolerance: float = TOLERANCE, case_object=None, angle_wrap: str = "consistent", vision=None):
     """Simulate one (world, case, scheme) (scheme: any name in ibvs.schemes.SCHEMES); returns
     (case object, sim.Result). case_object replaces the named case (e.g. another angle);
-    angle_wrap is set on the scheme's ibvs.Servo."""
+    angle_wrap is set on the scheme's ibvs.Servo. vision: None, or an ibvs.sim.Sensor for an
+    image episode (its renderer's camera replaces the case's: ibvs.vision.image_camera gives a
+    normalised case a 640x480 one)."""
     if angle_wrap not in ANGLE_WRAPS:
         raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
     c = case_object if case_object is not None else make_case(world, case)
+    camera = c.camera if vision is None else vision.renderer.camera
     servo = schemes.make(scheme, GAIN[world] if gain is None else gain, len(c.target))
     if isinstance(servo, ibvs.Servo):
         servo.angle_wrap = angle_wrap
-    result = sim.run(servo, c.camera, c.target, c.start, c.goal, robot=c.robot,
+    result = sim.run(servo, camera, c.target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
-                     depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance)
+                     depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance, vision=vision)
     return c, result
 
 

@@ -113,6 +113,39 @@ void robot_episode_allocates_nothing() {
   CHECK(r.history.frames > 10 && r.history.q.cols() == 7);
 }
 
+// An episode with a C++ sensor in place of the default (the measurement hook costs no allocation).
+class ShiftSensor final : public ibvs::sim::Sensor {
+ public:
+  void reset(std::uint64_t) noexcept override {}
+  bool measure(const ibvs::sim::SensorFrame& f, Eigen::Ref<Points> m) noexcept override {
+    m = *f.projected;
+    m.array() += 0.5;
+    return true;
+  }
+};
+
+void sensor_episode_allocates_nothing() {
+  using namespace sim_cases;
+  using ibvs::sim::Episode;
+  EpisodeOptions o;
+  o.duration = 5.0;
+  o.latency = 2;
+  o.depth = DepthMode::pose;
+  ServoOptions so;
+  so.gain = 1.0;
+  const Gantry g = Gantry::afma6();
+  Episode e(Servo(Layout::stacked(4), so), CameraModel::afma6(), gantry_target(g), g, o);
+  e.set_sensor(std::make_shared<ShiftSensor>());
+  const long before = news.load();
+  Eigen::internal::set_is_malloc_allowed(false);
+  const EpisodeResult& r = e.run(gantry_start(), gantry_goal());
+  Eigen::internal::set_is_malloc_allowed(true);
+  const long during = news.load() - before;
+  ibvs_test::report(during == 0, "no allocation in Episode::run with a sensor", __FILE__, __LINE__,
+                    std::to_string(during));
+  CHECK(r.history.frames > 10);
+}
+
 // PartitionedServo::update: fixed 8 rows and the bounded dynamic workspace (256 rows).
 void partitioned_allocates_nothing() {
   for (int n : {4, 3, 128}) {
@@ -256,6 +289,7 @@ void run_tests() {
   partitioned_allocates_nothing();
   joint_mapping_allocates_nothing();
   robot_episode_allocates_nothing();
+  sensor_episode_allocates_nothing();
   pixels_allocate_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});

@@ -16,7 +16,8 @@ FACES = ("target_backside", "collision")
 
 
 def test_outcomes_are_named_once():
-    assert sim.OUTCOMES[-2:] == FACES and len(set(sim.OUTCOMES)) == len(sim.OUTCOMES)
+    # the C++ enum's order: target_backside = 7, collision = 8 (lost_feature = 9 follows)
+    assert sim.OUTCOMES[7:9] == FACES and len(set(sim.OUTCOMES)) == len(sim.OUTCOMES)
 
 
 def test_six_point_plate_ends_behind_it():

@@ -20,6 +20,7 @@ const char* to_string(Outcome o) noexcept {
     case Outcome::timeout: return "timeout";
     case Outcome::target_backside: return "target_backside";
     case Outcome::collision: return "collision";
+    case Outcome::lost_feature: return "lost_feature";
   }
   return "unknown";
 }
@@ -97,6 +98,7 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
       camera_(camera),
       target_(std::move(target)),
       options_(options) {
+  sensor_ = std::make_shared<ProjectionSensor>(options_.noise);
   camera_.validate();
   target_.validate();
   options_.validate();
@@ -123,6 +125,7 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   if (target_.planar()) extent_ = (target_.points.colwise() - centroid_).colwise().norm().maxCoeff();
   const int slots = options_.latency + 1;
   pc_.resize(3, n);
+  projected_.resize(2, n);
   measured_.resize(2, static_cast<Eigen::Index>(n) * slots);
   ring_depth_.resize(slots, n);
   uv_.resize(2, n);
@@ -139,6 +142,8 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   h.uv.resize(K, 2 * n);
   h.rtheta.resize(K, 2 * n);
   h.depth.resize(K, n);
+  h.measured.resize(K, 2 * n);
+  h.projected.resize(K, 2 * n);
   h.error.resize(K, m);
   h.error_norm.resize(K);
   h.sigma_min.resize(K);
@@ -177,14 +182,32 @@ void Episode::prepare(const Pose& goal) {
     const Eigen::Vector3d p = T_cw.topLeftCorner<3, 3>() * world_points_.col(i) + T_cw.topRightCorner<3, 1>();
     if (!(p(2) >= options_.min_depth))
       throw std::invalid_argument("ibvs: goal: target point " + std::to_string(i) + " is behind the camera");
-    Eigen::Vector2d m, uv;
-    if (!camera_.project(p(0) / p(2), p(1) / p(2), m) || !camera_.contains(m(0), m(1)) ||
-        !camera_.normalize(m(0), m(1), uv))
+    Eigen::Vector2d m;
+    if (!camera_.project(p(0) / p(2), p(1) / p(2), m) || !camera_.contains(m(0), m(1)))
+      throw std::invalid_argument("ibvs: goal: target point " + std::to_string(i) + " is outside the image");
+    projected_.col(i) = m;
+    result_.depth_desired(i) = p(2);
+  }
+  // The desired points as the sensor measures them at the goal (frame -1; the default: the projections).
+  const Twist still = Twist::Zero();
+  SensorFrame f;
+  f.frame = -1;
+  f.pose = &goal;
+  f.projected = &projected_;
+  f.twist = &still;
+  auto measured = measured_.leftCols(target_.size());
+  if (!sensor_->measure(f, measured))
+    throw std::invalid_argument("ibvs: goal: the sensor failed to measure the goal image");
+  for (int i = 0; i < target_.size(); ++i) {
+    const Eigen::Vector2d m = measured.col(i);
+    Eigen::Vector2d uv;
+    if (!m.allFinite())
+      throw std::invalid_argument("ibvs: goal: the sensor did not find target point " + std::to_string(i));
+    if (!camera_.normalize(m(0), m(1), uv))
       throw std::invalid_argument("ibvs: goal: target point " + std::to_string(i) + " is outside the image");
     result_.uv_desired.col(i) = uv;
     desired_distance_.col(i) << m(0) - camera_.u_min(), camera_.u_max() - m(0), m(1) - camera_.v_min(),
         camera_.v_max() - m(1);
-    result_.depth_desired(i) = p(2);
   }
   if (depth_estimator_) {  // prior: the desired depths times depth_scale (z_ is scratch here: no allocation)
     z_ = options_.depth_scale * result_.depth_desired;
@@ -204,6 +227,7 @@ void Episode::prepare(const Pose& goal) {
 const EpisodeResult& Episode::run(const Pose& start, const Pose& goal) {
   if (robot_) throw std::invalid_argument("ibvs: start: this episode has a robot; give joint positions");
   check_rigid(start, "start");
+  sensor_->reset(options_.seed);
   prepare(goal);
   loop(start, nullptr);
   return result_;
@@ -221,6 +245,7 @@ const EpisodeResult& Episode::run(const JointVector& q_start, const Pose& goal) 
     throw std::invalid_argument("ibvs: start: joint " + std::to_string(j + 1) + " = " + std::to_string(q_start(j)) +
                                 " is outside its limits");
   const Pose T_wc = robot_->camera(q_start);  // throws if the kinematics fail
+  sensor_->reset(options_.seed);
   prepare(goal);
   loop(T_wc, &q_start);
   return result_;
@@ -245,8 +270,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   // The robot's end-effector pose and Jacobian at q (kinematics() once per frame).
   Pose T_we = Pose::Identity();
   bool kinematics_ok = !robot || robot_->kinematics(q, T_we, joint_in_.jacobian);
-  std::mt19937_64 rng(options_.seed);
-  std::normal_distribution<double> gauss(0.0, 1.0);
+  Twist moved = Twist::Zero();  // the twist commanded at the previous frame (the sensor's exposure)
 
   History& h = result_.history;
   Metrics& mt = result_.metrics;
@@ -269,6 +293,8 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     h.uv.row(k).setConstant(nan);
     h.rtheta.row(k).setConstant(nan);
     h.depth.row(k).setConstant(nan);
+    h.measured.row(k).setConstant(nan);
+    h.projected.row(k).setConstant(nan);
     h.error.row(k).setConstant(nan);
     h.error_norm(k) = h.sigma_min(k) = nan;
     if (robot) {
@@ -307,13 +333,35 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
       Eigen::Vector2d p;
       const bool mapped = camera_.project(pc_(0, i) / pc_(2, i), pc_(1, i) / pc_(2, i), p);
       if (outside < 0 && !(mapped && camera_.contains(p(0), p(1)))) outside = i;
-      Eigen::Vector2d noisy = p;
-      if (options_.noise > 0.0) noisy += options_.noise * Eigen::Vector2d(gauss(rng), gauss(rng));
-      measured_.col(static_cast<Eigen::Index>(slot) * n + i) = noisy;
+      projected_.col(i) = p;
       ring_depth_(slot, i) = pc_(2, i);
+    }
+    SensorFrame f;
+    f.frame = k;
+    f.pose = &T_wc;
+    f.projected = &projected_;
+    f.twist = &moved;
+    auto measured = measured_.middleCols(static_cast<Eigen::Index>(slot) * n, n);
+    const bool sensed = sensor_->measure(f, measured);
+    for (int i = 0; i < n; ++i) {
+      h.measured(k, 2 * i) = measured(0, i);
+      h.measured(k, 2 * i + 1) = measured(1, i);
+      h.projected(k, 2 * i) = projected_(0, i);
+      h.projected(k, 2 * i + 1) = projected_(1, i);
     }
     if (outside >= 0) {
       st = {Outcome::left_image, k, outside, -1};
+      break;
+    }
+    if (!sensed) {  // the sensor itself failed (e.g. a Python sensor raised)
+      st = {Outcome::diverged, k, -1, -1};
+      break;
+    }
+    int missing = -1;
+    for (int i = 0; i < n && missing < 0; ++i)
+      if (!measured.col(i).allFinite()) missing = i;
+    if (missing >= 0) {
+      st = {Outcome::lost_feature, k, missing, -1};
       break;
     }
     // Before t = 0 the camera sat at its start pose: frame 0 stands for those frames.
@@ -427,6 +475,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     mt.path_length += (T_next.topRightCorner<3, 1>() - T_wc.topRightCorner<3, 1>()).norm();
     c_prev = T_wc.topRightCorner<3, 1>();
     T_wc = T_next;
+    moved = out_.velocity;
   }
   h.frames = k + 1;
   const Pose& goal = result_.goal;
@@ -497,6 +546,10 @@ double Episode::boundary_tz(int seen) const noexcept {
   zbar /= n;
   const double tz = -options_.boundary_gain * zbar * zbar * dU_dTz;
   return std::isfinite(tz) ? tz : 0.0;
+}
+
+void Episode::set_sensor(std::shared_ptr<Sensor> sensor) {
+  sensor_ = sensor ? std::move(sensor) : std::make_shared<ProjectionSensor>(options_.noise);
 }
 
 EpisodeResult run_episode(AnyServo servo, const CameraModel& camera, const Target& target, const Pose& start,

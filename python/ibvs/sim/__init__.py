@@ -33,6 +33,7 @@ Camera = CameraModel  # the simulator's camera is the core's CameraModel (the sa
 Target = _sim.Target
 Robot = _sim.Robot
 Gantry = _sim.Gantry
+Sensor = _sim.Sensor
 
 __all__ = [
     "Camera",
@@ -43,6 +44,7 @@ __all__ = [
     "Result",
     "Robot",
     "RunStatus",
+    "Sensor",
     "Target",
     "UrdfRobot",
     "cases",
@@ -55,7 +57,7 @@ __all__ = [
 
 #: How an episode can end (the C++ Outcome enum, in its order).
 OUTCOMES = ("converged", "left_image", "behind_camera", "joint_limit", "singular", "diverged", "timeout",
-            "target_backside", "collision")
+            "target_backside", "collision", "lost_feature")
 
 
 @dataclass(frozen=True)
@@ -63,9 +65,9 @@ class RunStatus:
     """How an episode ended.
 
     outcome: one of OUTCOMES. frame: frame of the event (the last frame for a
-    timeout). point: index of the point for left_image / behind_camera (and for a
-    collision with a non-planar target), else -1. joint: index (0-based) of the joint
-    for joint_limit, else -1.
+    timeout). point: index of the point for left_image / behind_camera / lost_feature (the
+    sensor lost it: ibvs.vision's tracker or tag detector) and for a collision with a
+    non-planar target, else -1. joint: index (0-based) of the joint for joint_limit, else -1.
 
     target_backside: the camera centre went behind a planar target's plane (the front is
     the side the goal camera sees), so its points are seen from behind. collision: the
@@ -114,6 +116,9 @@ class History:
     PartitionedServo the Cartesian error, M = 2N); error_norm (K,);
     sigma_min (K,) smallest singular value of the servo's interaction matrix (for a
     PartitionedServo: of the four (Tx, Ty, wx, wy) columns of its Cartesian Jacobian).
+    measured (K, N, 2) the sensor's points at frame k (pixels; before latency; NaN = lost) and
+    projected (K, N, 2) the true projections (the default sensor adds noise to these; an image
+    sensor detects them in a rendered image).
     With a robot (else None): q (K, n), qdot (K, n) joint velocity applied after the frame,
     manipulability (K,) the product of the singular values of the robot's camera Jacobian
     (|det J| = |cos q5| on the gantry).
@@ -131,6 +136,8 @@ class History:
     q: Optional[np.ndarray] = None
     qdot: Optional[np.ndarray] = None
     manipulability: Optional[np.ndarray] = None
+    measured: Optional[np.ndarray] = None
+    projected: Optional[np.ndarray] = None
 
     def __len__(self) -> int:
         return len(self.time)
@@ -142,7 +149,8 @@ class Result:
 
     What the episode ran on comes with it, so that result.plot() and result.animate() need
     nothing else: camera, target, robot (None in free flight), layout (of the servo's error
-    rows; a PartitionedServo's Cartesian layout) and servo (a short description)."""
+    rows; a PartitionedServo's Cartesian layout), servo (a short description) and sensor (the
+    vision= sensor, e.g. an ibvs.vision.ImageSensor with its frames and timings; None by default)."""
 
     status: RunStatus
     metrics: Metrics
@@ -155,6 +163,7 @@ class Result:
     robot: Optional[Gantry] = None
     layout: Optional[Layout] = None
     servo: str = ""
+    sensor: Optional[Sensor] = None
 
     @property
     def converged(self) -> bool:
@@ -231,6 +240,7 @@ def run(
     boundary_margin: float = 0.0,
     boundary_gain: float = 0.1,
     standoff_ratio: float = 0.05,
+    vision=None,
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -273,6 +283,13 @@ def run(
         closer to the target than this times the goal depth of the target's centroid
         (default 5 %), or goes through a planar target; "target_backside" when it goes
         behind a planar target's plane (see RunStatus).
+    vision: None (the points are the camera model's projections plus `noise`), "dots" or "tag"
+        (ibvs.vision.ImageSensor.for_target(camera, target, vision): each frame is rendered,
+        the dots tracked or the tag detected, and their pixels undistorted for the servo; a
+        point the tracker loses ends the episode as lost_feature), or any ibvs.sim.Sensor
+        (an ImageSensor with your renderer options). Needs a pixel camera. With a sensor,
+        `noise` is not added (the image has its own) but still tells the depth estimator the
+        measurement noise (px).
     """
     if robot is not None and not isinstance(robot, Robot):
         raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
@@ -284,6 +301,12 @@ def run(
         raise TypeError(f"latency must be an int (frames), got {type(latency).__name__}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise TypeError(f"seed must be a non-negative int, got {seed!r}")
+    if isinstance(vision, str):
+        from .. import vision as _vision
+
+        vision = _vision.ImageSensor.for_target(camera, target, vision)
+    elif vision is not None and not isinstance(vision, Sensor):
+        raise TypeError(f"vision must be None, 'dots', 'tag' or an ibvs.sim.Sensor, got {type(vision).__name__}")
     d = _sim._run(
         servo,
         camera,
@@ -304,6 +327,7 @@ def run(
         boundary_margin=_real(boundary_margin, "boundary_margin"),
         boundary_gain=_real(boundary_gain, "boundary_gain"),
         standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
+        sensor=vision,
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
     metrics = Metrics(
@@ -326,6 +350,8 @@ def run(
         d.get("q"),
         d.get("qdot"),
         d.get("manipulability"),
+        d["measured"],
+        d["projected"],
     )
     return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
-                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo))
+                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision)

@@ -12,10 +12,14 @@
 //      a point with depth below min_depth ends the episode (behind_camera);
 //      one whose noise-free projection falls outside the sensor, or that the
 //      camera model cannot map (beyond its max_radius), ends it as left_image;
-//   3. the measurement: the camera model's projection (ibvs::CameraModel:
-//      kud for the paper's ViSP camera) plus Gaussian noise (seeded),
-//      written into a latency ring buffer; the controller reads the one taken
-//      `latency` frames earlier (before t = 0 the camera sat at its start);
+//   3. the measurement, by the episode's Sensor (sim/sensor.hpp) from the
+//      camera model's true projections (ibvs::CameraModel: kud for the
+//      paper's ViSP camera): by default those plus Gaussian noise (seeded;
+//      ProjectionSensor), or e.g. dots found in a rendered image
+//      (ibvs.vision); a point the sensor lost ends the episode
+//      (lost_feature). Written into a latency ring buffer; the controller
+//      reads the one taken `latency` frames earlier (before t = 0 the camera
+//      sat at its start);
 //   4. the controller's points: the delayed measurement normalised by the
 //      camera model (kdu for ViSP's; a pixel it cannot invert ends the
 //      episode as left_image); depths exact (of the delayed frame), from a
@@ -38,7 +42,8 @@
 //      at its last valid q. The robot's kinematics() is called once per frame,
 //      at the new joints (pose of the next frame, Jacobian of its mapping).
 // Desired features are measured the same way at the goal pose (teach by
-// showing), so the goal is an exact equilibrium of the noise-free loop.
+// showing: the sensor's frame -1, without noise), so the goal is an exact
+// equilibrium of the noise-free loop.
 //
 // Target faces and collisions (step 2). A planar target (all points in its
 // z = 0 plane, Target::planar) is a plate: its front is the side of its plane
@@ -92,6 +97,7 @@
 #include "ibvs/servo.hpp"
 #include "ibvs/sim/gantry.hpp"
 #include "ibvs/sim/robot.hpp"
+#include "ibvs/sim/sensor.hpp"
 #include "ibvs/sim/target.hpp"
 
 #include <Eigen/Core>
@@ -133,6 +139,7 @@ enum class Outcome : std::uint8_t {
   timeout = 6,        ///< duration elapsed
   target_backside = 7,  ///< the camera centre went behind the planar target's plane (see above)
   collision = 8,        ///< the camera went through the target or within the standoff of it (see above)
+  lost_feature = 9,     ///< the sensor lost a point (tracking gate, image border, not detected; EpisodeStatus::point)
 };
 const char* to_string(Outcome o) noexcept;
 const char* to_string(DepthMode d) noexcept;
@@ -161,7 +168,7 @@ struct EpisodeOptions {
 struct EpisodeStatus {
   Outcome outcome = Outcome::timeout;
   int frame = -1;  ///< frame of the event (last frame for timeout)
-  int point = -1;  ///< point index for left_image / behind_camera (and collision with a non-planar target)
+  int point = -1;  ///< point index for left_image / behind_camera / lost_feature (and collision with a non-planar target)
   int joint = -1;  ///< joint index for joint_limit
 };
 
@@ -202,6 +209,8 @@ struct History {
   RowMatrix uv;            ///< K x 2N: controller's (u, v) per point, normalised
   RowMatrix rtheta;        ///< K x 2N: the same points as (r, theta), theta in (-pi, pi]
   RowMatrix depth;         ///< K x N: depths given to the controller
+  RowMatrix measured;      ///< K x 2N: the sensor's (u, v) per point at frame k (measurement units, before latency)
+  RowMatrix projected;     ///< K x 2N: the true projections at frame k (measurement units)
   RowMatrix error;         ///< K x M: f (-) f* (the servo's error; M = 2N for a PartitionedServo)
   Eigen::VectorXd error_norm, sigma_min;
   /// product of the camera Jacobian's singular values (JointMappingOutput::manipulability;
@@ -258,6 +267,10 @@ class Episode {
   Robot* robot() const noexcept { return robot_.get(); }
   /// The servo run by this episode (std::get<Servo> or std::get<PartitionedServo>).
   AnyServo& servo() noexcept { return servo_; }
+  /// The measurement (default: ProjectionSensor(options.noise)); shared, not copied: a sensor
+  /// must not be run by two episodes at once. Null restores the default.
+  void set_sensor(std::shared_ptr<Sensor> sensor);
+  Sensor& sensor() const noexcept { return *sensor_; }
 
  private:
   void prepare(const Pose& goal);
@@ -270,6 +283,7 @@ class Episode {
   CameraModel camera_;
   Target target_;
   std::shared_ptr<Robot> robot_;
+  std::shared_ptr<Sensor> sensor_;
   std::optional<JointMapping> mapping_;  // the robot's, sized for its n joints
   JointMappingInput joint_in_{1};
   JointMappingOutput joint_out_{1};
@@ -285,7 +299,8 @@ class Episode {
   Eigen::Vector3d centroid_w_ = Eigen::Vector3d::Zero();
   // per-frame work
   Eigen::Matrix3Xd pc_;
-  Points measured_;   // 2 x N(L+1) ring of noisy measurements
+  Points projected_;  // 2 x N true projections of this frame
+  Points measured_;   // 2 x N(L+1) ring of measurements
   RowMatrix ring_depth_;  // (L+1) x N true depths
   Points uv_;
   Eigen::VectorXd z_;

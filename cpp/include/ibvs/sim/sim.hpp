@@ -5,4 +5,5 @@
 #include "ibvs/camera_model.hpp"
 #include "ibvs/sim/episode.hpp"
 #include "ibvs/sim/gantry.hpp"
+#include "ibvs/sim/sensor.hpp"
 #include "ibvs/sim/target.hpp"
