@@ -33,6 +33,16 @@ int checked_joints(int n) {
   return n;
 }
 
+// A refused update: zero joint velocities, zero diagnostics, Status::invalid_input.
+Status refuse(JointMappingOutput& out, int n) noexcept {
+  out.qdot.setZero(n);
+  out.saturated = false;
+  out.saturation_scale = 1.0;
+  out.sigma_min = out.sigma_max = out.manipulability = out.damping = 0.0;
+  out.rank = 0;
+  return out.status = Status::invalid_input;
+}
+
 }  // namespace
 
 JointMappingInput::JointMappingInput(int n)
@@ -103,20 +113,12 @@ Status JointMapping::update(const JointMappingInput& in, JointMappingOutput& out
   const bool ok = in.twist.allFinite() && in.jacobian.cols() == n && in.jacobian.allFinite() &&
                   in.secondary.size() == n && in.secondary.allFinite() &&
                   (options_.frame != JacobianFrame::base || is_rotation(in.base_rotation));
-  const auto refuse = [&]() noexcept {
-    out.qdot.setZero(n);
-    out.saturated = false;
-    out.saturation_scale = 1.0;
-    out.sigma_min = out.sigma_max = out.manipulability = out.damping = 0.0;
-    out.rank = 0;
-    return out.status = Status::invalid_input;
-  };
   if (!ok) {
     out.camera_jacobian.setZero(6, n);
-    return refuse();
+    return refuse(out, n);
   }
   camera_jacobian(eMc_, options_.frame, in.jacobian, in.base_rotation, out.camera_jacobian);
-  if (!out.camera_jacobian.allFinite()) return refuse();  // finite input whose eq. (1) overflows
+  if (!out.camera_jacobian.allFinite()) return refuse(out, n);  // finite input whose eq. (1) overflows
   if (n >= 6 && normal_route(in, out)) return finish(out, Status::ok);
   work_ = out.camera_jacobian;
   svd_.compute(work_, Eigen::ComputeThinU | Eigen::ComputeThinV);
@@ -216,14 +218,7 @@ Status JointMapping::finish(JointMappingOutput& out, Status status) noexcept {
       out.saturation_scale = scale;
     }
   }
-  if (!out.qdot.allFinite()) {  // e.g. a huge twist over a tiny singular value
-    out.qdot.setZero(n);
-    out.saturated = false;
-    out.saturation_scale = 1.0;
-    out.sigma_min = out.sigma_max = out.manipulability = out.damping = 0.0;
-    out.rank = 0;
-    return out.status = Status::invalid_input;
-  }
+  if (!out.qdot.allFinite()) return refuse(out, n);  // e.g. a huge twist over a tiny singular value
   return out.status = status;
 }
 
