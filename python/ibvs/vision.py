@@ -140,7 +140,7 @@ class Renderer:
       exposure     motion blur: exposure time (s) over which render(pose, twist) averages the
                    camera moving with `twist` (5 sub-frames), 0 = none
       noise        sensor noise: std of additive Gaussian noise in gray levels, then 8-bit quantisation
-      seed         of the noise (a numpy default_rng seeds OpenCV's randn per frame); reseed() restarts it
+      seed         of the noise (a numpy default_rng); reseed() restarts it
     """
 
     DOT, PLATE, BACKGROUND = 230.0, 30.0, 10.0  # gray levels for dots
@@ -180,7 +180,6 @@ class Renderer:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise TypeError(f"seed must be a non-negative int, got {seed!r}")
         self.reseed(int(seed))
-        self._noise_buffer = np.empty((self.size[1], self.size[0]), np.float32)
         xy = np.asarray(target.points)[:, :2]
         if kind == "dots":
             d = np.linalg.norm(xy[:, None] - xy[None], axis=-1)
@@ -235,8 +234,23 @@ class Renderer:
         self._edge_t = t
 
     def reseed(self, seed: int) -> None:
-        """Restart the noise generator."""
+        """Restart the noise generator: the images that follow depend on the seed only."""
         self._rng = np.random.default_rng(seed)
+        self._noise_table = None  # drawn from the new generator at the next noisy frame
+
+    def _noise(self) -> np.ndarray:
+        """This frame's sensor noise (height, width), float32: a window at a random offset into a table of
+        (2 height, 2 width) normals drawn once per seed. Within a frame the values are independent normals of
+        std `noise`; from frame to frame a pixel reads an unrelated table entry (the same one only when two
+        frames draw the same offset, 1 in 300,000 at 640x480). Drawing fresh normals every frame costs 1.5 ms
+        at 640x480; the window costs nothing but the add."""
+        W, H = self.size
+        if self._noise_table is None or self._noise_table[1] != self.noise:
+            table = self._rng.standard_normal((2 * H, 2 * W), dtype=np.float32)
+            table *= np.float32(self.noise)
+            self._noise_table = (table, self.noise)
+        dy, dx = (int(i) for i in self._rng.integers(0, [H + 1, W + 1]))
+        return self._noise_table[0][dy : dy + H, dx : dx + W]
 
     # -- set-up (allocates; once) --
     def _build_texture(self, cv2, lo, hi, xy) -> None:
@@ -423,14 +437,9 @@ class Renderer:
                         )
         if self.blur > 0:
             img = cv2.GaussianBlur(img, (0, 0), self.blur)
-        if self.noise > 0:
-            # cv2.randn (about 6 times faster than numpy's float32 normals), seeded per frame from this
-            # renderer's own generator: reproducible whatever else uses OpenCV's RNG
-            cv2.setRNGSeed(int(self._rng.integers(0, 2**31 - 1)))
-            cv2.randn(self._noise_buffer, 0.0, self.noise)
-            img += self._noise_buffer
-        # 8-bit quantisation: round to nearest, saturate (cv2's saturate_cast; negatives clipped first)
-        return cv2.convertScaleAbs(cv2.max(img, 0.0))
+        # noise, then 8-bit quantisation in the same pass: cv2.add into CV_8U rounds to nearest (ties to
+        # even) and saturates to [0, 255]
+        return cv2.add(img, self._noise() if self.noise > 0 else 0.0, dtype=cv2.CV_8U)
 
     def __repr__(self) -> str:
         what = (

@@ -134,6 +134,32 @@ def test_tracker_keeps_correspondence_through_a_half_turn():
     assert np.allclose(t.pixels[0], projected(camera, target, np.eye(4))[2], atol=0.3)
 
 
+def test_sensor_noise_is_white_and_seeded():
+    """The noise is a random window of a per-seed table: per frame independent normals of the given std
+    (plus 8-bit rounding), uncorrelated between neighbouring pixels and between frames; a seed gives
+    the same images again, another seed others."""
+    camera = camera_640()
+    target = sim.Target.square(0.1, sim.pose(t=(0.0, 0.0, 0.6)))
+    clean = vision.Renderer(camera, target, "dots").render(np.eye(4)).astype(float)
+    sigma = 2.0  # the background (10 gray levels) is 5 sigma above 0: whole frame, 300,000 samples
+    r = vision.Renderer(camera, target, "dots", noise=sigma, seed=7)
+    frames = [r.render(np.eye(4)) for _ in range(3)]
+    keep = (clean >= 5 * sigma) & (clean <= 255 - 5 * sigma)  # no saturation at 0 or 255
+    d = [f.astype(float)[keep] - clean[keep] for f in frames]
+    for e in d:
+        assert abs(e.mean()) < 0.05 and abs(e.std() - math.sqrt(sigma**2 + 1 / 12)) < 0.05 * sigma
+    assert abs(np.corrcoef(d[0], d[1])[0, 1]) < 0.01 and abs(np.corrcoef(d[1], d[2])[0, 1]) < 0.01
+    full = frames[0].astype(float) - clean
+    rows = full[keep.all(axis=1)]
+    assert abs(np.corrcoef(rows[:, 1:].ravel(), rows[:, :-1].ravel())[0, 1]) < 0.01  # neighbours
+    r.reseed(7)
+    assert all(np.array_equal(r.render(np.eye(4)), f) for f in frames)
+    again = vision.Renderer(camera, target, "dots", noise=sigma, seed=7)
+    assert np.array_equal(again.render(np.eye(4)), frames[0])
+    r.reseed(8)
+    assert not np.array_equal(r.render(np.eye(4)), frames[0])
+
+
 def test_loss_at_the_border_is_reported_by_index():
     camera = camera_640()
     target = sim.Target.square(0.1, sim.pose(t=(0.0, 0.0, 0.6)))
