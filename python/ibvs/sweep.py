@@ -503,25 +503,76 @@ def sweep(
     return sorted((r for k, r in rows.items() if k in keep), key=lambda r: (r["index"], r["scheme"]))
 
 
-def _worker_init() -> None:
-    """Pool workers leave Ctrl-C and SIGTERM to the parent, which terminates them."""
+def _worker(conn, spec: SweepSpec, factories: Optional[dict]) -> None:
+    """A local worker process: runs the batches the parent sends on its own pipe until it sends None
+    (or closes the pipe). Ctrl-C and SIGTERM are the parent's, which kills the workers."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    while True:
+        try:
+            chunk = conn.recv()
+        except EOFError:
+            return
+        if chunk is None:
+            return
+        try:
+            reply = ("rows", _run_batch(spec, chunk, factories))
+        except Exception as e:  # re-raised in the parent, as a pool would
+            reply = ("error", e)
+        try:
+            conn.send(reply)
+        except Exception as e:  # an unpicklable exception: its text
+            conn.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}") if reply[0] == "error" else e))
 
 
-def _run_local(n_workers: int, spec: SweepSpec, chunks: list, factories: dict, take) -> None:
-    import functools
+def _run_local(n_workers: int, spec: SweepSpec, chunks: list, factories: Optional[dict], take) -> None:
+    """The batches on worker processes, each with its own pipe: no lock is shared between processes, so
+    an interruption can kill the workers at any moment (multiprocessing.Pool.terminate can deadlock on its
+    task queue's lock when a signal arrives while an idle worker holds it)."""
+    from multiprocessing.connection import wait
 
-    pool = multiprocessing.get_context().Pool(min(n_workers, len(chunks)), initializer=_worker_init)
+    ctx = multiprocessing.get_context()
+    workers: list = []
+    finished = False
     try:
-        for rows in pool.imap_unordered(functools.partial(_run_batch, spec, factories=factories), chunks):
-            take(rows)
-    except BaseException:
-        pool.terminate()  # an interruption: the workers are killed now, not after their batch
-        pool.join()
-        raise
-    pool.close()
-    pool.join()
+        for _ in range(min(n_workers, len(chunks))):
+            parent, child = ctx.Pipe()
+            p = ctx.Process(target=_worker, args=(child, spec, factories), daemon=True)
+            p.start()
+            child.close()
+            workers.append((p, parent))
+        todo = iter(chunks)
+        busy = {}
+        for p, conn in workers:
+            chunk = next(todo, None)
+            if chunk is not None:
+                conn.send(chunk)
+                busy[conn] = p
+        while busy:
+            for conn in wait(list(busy)):
+                try:
+                    kind, value = conn.recv()
+                except EOFError:
+                    raise RuntimeError(f"a sweep worker died (exit code {busy[conn].exitcode})") from None
+                if kind == "error":
+                    raise value
+                take(value)
+                chunk = next(todo, None)
+                if chunk is None:
+                    del busy[conn]
+                else:
+                    conn.send(chunk)
+        for _, conn in workers:
+            conn.send(None)
+        finished = True
+    finally:  # normal end: the workers exit by themselves; an interruption or an error: killed now
+        for p, conn in workers:
+            if finished:
+                p.join(timeout=5)
+            if p.exitcode is None:
+                p.kill()
+                p.join()
+            conn.close()
 
 
 #: Seconds a Dask scheduler address has to answer.

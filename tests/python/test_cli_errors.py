@@ -174,9 +174,10 @@ def test_signal_stops_a_sweep_within_a_second(tmp_path, sig):
         p.send_signal(sig)
         _, err = p.communicate(timeout=10)
         elapsed = time.monotonic() - t0
-    finally:
+    finally:  # a hung sweep must not outlive the test (nor its workers, which exit when its pipes close)
         if p.poll() is None:
             p.kill()
+            p.communicate()
     assert elapsed < 1.0, elapsed
     assert p.returncode == (130 if sig == signal.SIGINT else 143)
     lines = err.strip().splitlines()

@@ -114,6 +114,26 @@ def test_registry_and_bad_arguments(tmp_path):
         sw.sweep(bad, episodes=1, progress=False)
 
 
+def test_a_worker_error_reaches_the_caller_and_no_worker_is_left():
+    import multiprocessing
+    import os
+
+    parent = os.getpid()
+
+    def broken(gain):
+        if os.getpid() == parent:  # the sweep may try the factory in the caller first: only workers fail
+            return ibvs.Servo(ibvs.Layout.polar(4), gain=gain)
+        raise ValueError("boom from a worker")
+
+    sw.register_scheme("broken", broken)
+    try:
+        with pytest.raises(ValueError, match="boom from a worker"):
+            sw.sweep(None, jobs=2, batch=2, schemes=["broken"], **{**SMALL, "episodes": 20})
+    finally:
+        del sw.SCHEMES["broken"]
+    assert multiprocessing.active_children() == []
+
+
 def test_partitioned_scheme(tmp_path, capsys):
     """The partitioned law (a PartitionedServo) is a registered, picklable scheme: a pure rotation
     about the optical axis needs no camera retreat, unlike Cartesian IBVS."""
