@@ -33,7 +33,9 @@ PointArgs point_args(py::handle obj, const char* name) {
   return {a, Eigen::Map<const Points>(a.data(), 2, n)};
 }
 
-std::string pair(double a, double b) { return "(" + std::to_string(a) + ", " + std::to_string(b) + ")"; }
+std::string pair(double a, double b) {
+  return "(" + float_repr(a) + ", " + float_repr(b) + ")";
+}
 
 // Maps every point with f (project or normalize); a point f refuses raises a ValueError naming it,
 // or becomes NaN with invalid="nan".
@@ -140,6 +142,15 @@ void set_camera_of(Law& s, py::handle camera) {
 void py_servo::set_camera(Servo& s, py::handle camera) { set_camera_of(s, camera); }
 void py_servo::set_camera(PartitionedServo& s, py::handle camera) { set_camera_of(s, camera); }
 
+namespace {
+// ViSP's form with every number checked as a real (bool, complex and str refused, by name).
+CameraModel from_visp_arg(py::handle px, py::handle py, py::handle u0, py::handle v0, py::handle kud, py::handle kdu,
+                          py::handle width, py::handle height, py::handle fps) {
+  return CameraModel::from_visp(real(px, "px"), real(py, "py"), real(u0, "u0"), real(v0, "v0"), real(kud, "kud"),
+                                real(kdu, "kdu"), real(width, "width"), real(height, "height"), real(fps, "fps"));
+}
+}  // namespace
+
 void bind_camera(py::module_& m) {
   py::class_<CameraModel>(m, "CameraModel", R"(Pinhole camera with lens distortion: normalised image coordinates <-> pixels.
 
@@ -154,18 +165,19 @@ CameraModel(px, py, u0, v0, kud=0, kdu=0, width=640, height=480, fps=60) is ViSP
 simulator's camera, ibvs.sim.Camera); see also from_opencv, from_yaml, from_visp, normalized.
 The sensor spans [0, width] x [0, height] pixels; fps is the frame rate (the simulator's control
 period is 1 / fps).)")
-      .def(py::init(&CameraModel::from_visp), py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"),
+      .def(py::init(&from_visp_arg), py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"),
            py::arg("kud") = 0.0, py::arg("kdu") = 0.0, py::arg("width") = 640.0, py::arg("height") = 480.0,
            py::arg("fps") = 60.0)
-      .def_static("from_visp", &CameraModel::from_visp, py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"),
+      .def_static("from_visp", &from_visp_arg, py::arg("px"), py::arg("py"), py::arg("u0"), py::arg("v0"),
                   py::arg("kud"), py::arg("kdu"), py::arg("width"), py::arg("height"), py::arg("fps") = 60.0,
                   R"(ViSP's vpCameraParameters with distortion: focal lengths px, py and principal point u0, v0
 (pixels); project with kud, normalize with kdu (separate calibrations: the round trip is close,
 not exact). kud = kdu = 0 gives distortion "none".)")
       .def_static(
           "from_opencv",
-          [](py::handle K, py::handle dist, double width, double height, bool fisheye, double fps) {
-            return CameraModel::from_opencv(k_arg(K), dist_arg(dist), width, height, fisheye, fps);
+          [](py::handle K, py::handle dist, py::handle width, py::handle height, py::handle fisheye, py::handle fps) {
+            return CameraModel::from_opencv(k_arg(K), dist_arg(dist), real(width, "width"), real(height, "height"),
+                                            boolean(fisheye, "fisheye"), real(fps, "fps"));
           },
           py::arg("K"), py::arg("dist"), py::arg("width"), py::arg("height"), py::arg("fisheye") = false,
           py::arg("fps") = 60.0,
@@ -176,10 +188,11 @@ fisheye=True the 4 of cv2.fisheye (k1, k2, k3, k4, "equidistant"). None or all z
 distortion. width, height: image size in pixels.)")
       .def_static(
           "from_yaml",
-          [](py::handle path, double fps) {
+          [](py::handle path, py::handle fps) {
             const py::dict d = py::module_::import("ibvs._calibration").attr("read")(path);
-            return CameraModel::from_opencv(k_arg(d["K"]), dist_arg(d["dist"]), d["width"].cast<double>(),
-                                            d["height"].cast<double>(), d["fisheye"].cast<bool>(), fps);
+            return CameraModel::from_opencv(k_arg(d["K"]), dist_arg(d["dist"]), real(d["width"], "image_width"),
+                                            real(d["height"], "image_height"), boolean(d["fisheye"], "fisheye_model"),
+                                            real(fps, "fps"));
           },
           py::arg("path"), py::arg("fps") = 60.0,
           R"(From a calibration file: a ROS camera_info YAML (camera_matrix, distortion_model,
@@ -187,7 +200,11 @@ distortion_coefficients, image_width, image_height) or an OpenCV calibration fil
 cv::FileStorage (YAML, XML or JSON; camera_matrix, distortion_coefficients, image_width,
 image_height, optional fisheye_model). Read with OpenCV's cv2.FileStorage: needs
 pip install "ibvs[vision]".)")
-      .def_static("normalized", &CameraModel::normalized, py::arg("bounds") = 0.3, py::arg("fps") = 60.0,
+      .def_static(
+          "normalized", [](py::handle bounds, py::handle fps) {
+            return CameraModel::normalized(real(bounds, "bounds"), real(fps, "fps"));
+          },
+          py::arg("bounds") = 0.3, py::arg("fps") = 60.0,
                   "Paper Table I: unit focal length (pixels = normalised coordinates), sensor +-bounds, no distortion.")
       .def_static("afma6", &CameraModel::afma6,
                   "Paper Section III-B / ViSP's Afma6 camera: 640x480, px 1090.6, py 1090.0, u0 310.1, v0 260.8, "

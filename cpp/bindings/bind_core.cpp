@@ -66,17 +66,35 @@ AngleWrap angle_wrap_arg(py::handle obj) {
 const char* angle_wrap_name(AngleWrap w) { return w == AngleWrap::per_point ? "per_point" : "consistent"; }
 
 
+// One (point_index, representation) pair of Layout(blocks): a fast path for the usual (int, str) tuple
+// (10^5 blocks in a few ms), the general checks, with their messages, for anything else.
+Block block_of(py::handle item, std::size_t k) {
+  PyObject* p = item.ptr();
+  if (PyTuple_CheckExact(p) && PyTuple_GET_SIZE(p) == 2 && PyLong_CheckExact(PyTuple_GET_ITEM(p, 0)) &&
+      PyUnicode_CheckExact(PyTuple_GET_ITEM(p, 1))) {
+    int overflow = 0;
+    const long long i = PyLong_AsLongLongAndOverflow(PyTuple_GET_ITEM(p, 0), &overflow);
+    PyObject* r = PyTuple_GET_ITEM(p, 1);
+    if (!overflow && i >= 0 && i < max_points) {
+      if (PyUnicode_CompareWithASCIIString(r, "cartesian") == 0) return {static_cast<int>(i), Representation::cartesian};
+      if (PyUnicode_CompareWithASCIIString(r, "polar") == 0) return {static_cast<int>(i), Representation::polar};
+      if (PyUnicode_CompareWithASCIIString(r, "cylindrical") == 0)
+        return {static_cast<int>(i), Representation::cylindrical};
+    }
+  }
+  const std::string where = "blocks[" + std::to_string(k) + "]";
+  if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
+    throw py::type_error(where + " must be a pair (point_index, 'cartesian' | 'polar' | 'cylindrical')");
+  const auto pair = py::reinterpret_borrow<py::sequence>(item);
+  return {int_in(pair[0], where + "[0] (point index)", 0, max_points - 1), representation(pair[1], where + "[1]")};
+}
+
 Layout make_layout(const py::iterable& blocks, const py::object& n_points) {
   if (py::isinstance<py::str>(blocks)) throw py::type_error("blocks must be a sequence of (point_index, representation)");
   std::vector<Block> out;
+  if (PyList_Check(blocks.ptr())) out.reserve(static_cast<std::size_t>(PyList_GET_SIZE(blocks.ptr())));
   std::size_t k = 0;
-  for (py::handle item : blocks) {
-    const std::string where = "blocks[" + std::to_string(k++) + "]";
-    if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
-      throw py::type_error(where + " must be a pair (point_index, 'cartesian' | 'polar' | 'cylindrical')");
-    const auto pair = py::reinterpret_borrow<py::sequence>(item);
-    out.push_back({int_in(pair[0], where + "[0] (point index)", 0, max_points - 1), representation(pair[1], where + "[1]")});
-  }
+  for (py::handle item : blocks) out.push_back(block_of(item, k++));
   return Layout(std::move(out), n_points.is_none() ? -1 : int_in(n_points, "n_points", 1, max_points));
 }
 
@@ -183,7 +201,12 @@ n_points defaults to the largest point index + 1.)")
                              "List of (point_index, representation) in row order.")
       .def(py::self == py::self)
       .def("__repr__", &layout_repr)
-      .def("__hash__", [](const Layout& l) { return py::hash(py::str(l.describe())); });
+      .def("__hash__", [](const Layout& l) {  // of what == compares (n_points, blocks), without a string
+        std::size_t h = static_cast<std::size_t>(l.n_points());
+        for (const Block& b : l.blocks())
+          h = (h * 1000003u) ^ (static_cast<std::size_t>(b.point) * 4u + static_cast<std::size_t>(b.representation));
+        return static_cast<py::ssize_t>(h);
+      });
 
   m.def(
       "features",
@@ -370,16 +393,17 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
             previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
             forgets it); "per_point": eq. (13) point by point, no memory)")
       .def(py::init([](const Layout& layout, py::handle gain, py::handle damping, const std::string& jac,
-                       py::handle polar_min_radius, bool diagnostics, py::handle max_linear_speed,
-                       py::handle max_angular_speed, py::handle camera, py::handle angle_wrap, bool exact_diagnostics) {
+                       py::handle polar_min_radius, py::handle diagnostics, py::handle max_linear_speed,
+                       py::handle max_angular_speed, py::handle camera, py::handle angle_wrap,
+                       py::handle exact_diagnostics) {
              ServoOptions o;
              o.angle_wrap = angle_wrap_arg(angle_wrap);
              set_gain(o, gain);
              o.damping = real(damping, "damping");
              o.jacobian = interaction(jac);
              o.polar_min_radius = real(polar_min_radius, "polar_min_radius");
-             o.diagnostics = diagnostics;
-             o.exact_diagnostics = exact_diagnostics;
+             o.diagnostics = boolean(diagnostics, "diagnostics");
+             o.exact_diagnostics = boolean(exact_diagnostics, "exact_diagnostics");
              o.max_linear_speed = real(max_linear_speed, "max_linear_speed");
              o.max_angular_speed = real(max_angular_speed, "max_angular_speed");
              PyServo s(layout, o);
@@ -393,14 +417,14 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
       .def_static(
           "automatic_hybrid",
           [](py::handle n, py::handle gain, py::handle switch_radius, py::handle damping, const std::string& jac,
-             bool diagnostics, py::handle max_linear_speed, py::handle max_angular_speed, py::handle camera,
+             py::handle diagnostics, py::handle max_linear_speed, py::handle max_angular_speed, py::handle camera,
              py::handle angle_wrap) {
             ServoOptions o;
             o.angle_wrap = angle_wrap_arg(angle_wrap);
             set_gain(o, gain);
             o.damping = real(damping, "damping");
             o.jacobian = interaction(jac);
-            o.diagnostics = diagnostics;
+            o.diagnostics = boolean(diagnostics, "diagnostics");
             o.max_linear_speed = real(max_linear_speed, "max_linear_speed");
             o.max_angular_speed = real(max_angular_speed, "max_angular_speed");
             const double r = real(switch_radius, "switch_radius");
@@ -485,7 +509,7 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
       .def("__repr__", [](const PyServo& s) {
         const auto& o = s.servo.options();
         return "Servo(" + layout_repr(s.servo.layout()) + ", gain=" + std::string(py::repr(gain_of(o))) +
-               ", damping=" + std::to_string(o.damping) + ", jacobian='" + interaction_name(o.jacobian) +
+               ", damping=" + float_repr(o.damping) + ", jacobian='" + interaction_name(o.jacobian) +
                "', angle_wrap='" + angle_wrap_name(o.angle_wrap) + "')";
       });
 }

@@ -65,15 +65,16 @@ between frames (odometry), corrected with the measured point.
   process_noise      std added to 1/z per update, relative; position_noise: to x, y, normalised
   min_depth, max_depth_ratio  depths are kept within [min_depth, max_depth_ratio * prior] (metres)
 update(uv, motion) -> (depth, variance), each (N,), metres and m^2.)")
-      .def(py::init([](py::handle prior, double point_noise, double prior_uncertainty, double process_noise,
-                       double position_noise, double min_depth, double max_depth_ratio) {
+      .def(py::init([](py::handle prior, py::handle point_noise, py::handle prior_uncertainty,
+                       py::handle process_noise, py::handle position_noise, py::handle min_depth,
+                       py::handle max_depth_ratio) {
              DepthEstimatorOptions o;
-             o.point_noise = point_noise;
-             o.prior_uncertainty = prior_uncertainty;
-             o.process_noise = process_noise;
-             o.position_noise = position_noise;
-             o.min_depth = min_depth;
-             o.max_depth_ratio = max_depth_ratio;
+             o.point_noise = real(point_noise, "point_noise");
+             o.prior_uncertainty = real(prior_uncertainty, "prior_uncertainty");
+             o.process_noise = real(process_noise, "process_noise");
+             o.position_noise = real(position_noise, "position_noise");
+             o.min_depth = real(min_depth, "min_depth");
+             o.max_depth_ratio = real(max_depth_ratio, "max_depth_ratio");
              return PyDepthEstimator{DepthEstimator(prior_arg(prior), o)};
            }),
            py::arg("prior"), py::arg("point_noise") = 0.0, py::arg("prior_uncertainty") = 1.0,
@@ -104,7 +105,7 @@ Returns (depth, variance): metres and m^2, each (N,).)")
       .def_property_readonly("n_points", [](const PyDepthEstimator& s) { return s.est.n_points(); })
       .def("__repr__", [](const PyDepthEstimator& s) {
         return "DepthEstimator(" + std::to_string(s.est.n_points()) + " points, point_noise=" +
-               std::to_string(s.est.options().point_noise) + (s.est.initialized() ? ", running)" : ", at the prior)");
+               float_repr(s.est.options().point_noise) + (s.est.initialized() ? ", running)" : ", at the prior)");
       });
 
   py::class_<PlanarPose>(m, "PlanarPose", R"(Pose of a planar target from its image points.
@@ -114,11 +115,12 @@ N >= 4, not all on one line. estimate(uv) -> (pose, depth, degenerate): the came
 (4x4, metres) and the points' depths in the camera frame (N,), from normalised image points uv;
 a homography (DLT) refined by Gauss-Newton on the reprojection error. degenerate is True (pose and
 depth NaN) when the image does not determine a pose (collinear points, a point behind the camera).)")
-      .def(py::init([](py::handle pts, int iterations) {
+      .def(py::init([](py::handle pts, py::handle iterations) {
              const CArray a = as_array(pts, "points");
              if (a.ndim() != 2 || a.shape(1) != 3)
                throw py::value_error("points must have shape (N, 3), got " + shape_of(a));
-             return PlanarPose(Eigen::Map<const Eigen::Matrix3Xd>(a.data(), 3, a.shape(0)), iterations);
+             return PlanarPose(Eigen::Map<const Eigen::Matrix3Xd>(a.data(), 3, a.shape(0)),
+                               int_in(iterations, "iterations", 0, 1000));
            }),
            py::arg("points"), py::arg("iterations") = 5)
       .def(
@@ -126,11 +128,7 @@ depth NaN) when the image does not determine a pose (collinear points, a point b
           [](const PlanarPose& p, py::handle uv_obj) {
             const CArray a = as_array(uv_obj, "uv");
             const auto uv = points(a, "uv");
-            if (uv.cols() != p.n_points())
-              throw py::value_error("uv must hold " + std::to_string(p.n_points()) + " points (the target's), got " +
-                                    std::to_string(uv.cols()));
-            for (Eigen::Index i = 0; i < uv.cols(); ++i)
-              if (!uv.col(i).allFinite()) throw py::value_error("uv[" + std::to_string(i) + "] is not finite");
+            p.validate(uv);
             Pose T = Pose::Constant(not_a_number);
             Eigen::VectorXd z = Eigen::VectorXd::Constant(p.n_points(), not_a_number);
             const bool ok = p.estimate(uv, T, z);

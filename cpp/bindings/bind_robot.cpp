@@ -125,8 +125,8 @@ void bind_robot(py::module_& m) {
                     "The uniform factor in (0, 1] applied to qdot (1 when not saturated).")
       .def("__repr__", [](const JointMappingOutput& o) {
         return "JointMappingResult(status=" + std::string(py::str(py::cast(o.status))) +
-               ", rank=" + std::to_string(o.rank) + ", sigma_min=" + std::to_string(o.sigma_min) +
-               ", saturation_scale=" + std::to_string(o.saturation_scale) + ")";
+               ", rank=" + std::to_string(o.rank) + ", sigma_min=" + float_repr(o.sigma_min) +
+               ", saturation_scale=" + float_repr(o.saturation_scale) + ")";
       });
 
   py::class_<PyJointMapping>(m, "JointMapping", R"(Camera twist -> joint velocities of the arm carrying the camera.
@@ -174,7 +174,7 @@ arms; they do not move the camera). Returns a JointMappingResult.)")
           "(n,) joint-speed limits, or None.")
       .def("__repr__", [](const PyJointMapping& p) {
         return "JointMapping(n_joints=" + std::to_string(p.map.joints()) + ", frame='" +
-               to_string(p.map.options().frame) + "', damping=" + std::to_string(p.map.options().damping) + ")";
+               to_string(p.map.options().frame) + "', damping=" + float_repr(p.map.options().damping) + ")";
       });
 
   m.def(

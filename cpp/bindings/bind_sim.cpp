@@ -61,13 +61,32 @@ JacobianFrame frame_arg(py::handle obj) {
   throw py::value_error("frame must be 'end_effector' or 'base', got '" + s + "'");
 }
 
-// ibvs.sim.Robot for Python subclasses: kinematics() calls the subclass's
-// kinematics(q) -> (T_we (4, 4), J (6, n)). A Python exception cannot cross
-// the noexcept episode loop: the first one is kept here, kinematics() returns
-// false (the episode stops) and the binding raises it after the run.
-class PyRobot : public Robot {
+// A Python exception cannot cross the noexcept episode loop: a trampoline keeps
+// the first one (keep() in its catch (...)), returns false so that the episode
+// stops, and the binding raises it after the run.
+class KeptError {
  public:
+  void keep() const noexcept {
+    if (!error) error = std::current_exception();
+  }
+  bool failed() const noexcept { return static_cast<bool>(error); }
+  void forget() noexcept { error = nullptr; }
+  /// Raises the kept exception, if any (and forgets it).
+  void raise() const {
+    if (!error) return;
+    std::exception_ptr e = error;
+    error = nullptr;
+    std::rethrow_exception(e);
+  }
+
+ private:
   mutable std::exception_ptr error;
+};
+
+// ibvs.sim.Robot for Python subclasses: kinematics() calls the subclass's
+// kinematics(q) -> (T_we (4, 4), J (6, n)); exceptions are kept (KeptError).
+class PyRobot : public Robot, public KeptError {
+ public:
 
   bool kinematics(const JointVector& q, Pose& T_we, RobotJacobian& J) const noexcept override {
     try {
@@ -86,42 +105,32 @@ class PyRobot : public Robot {
       J = Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>>(a.data(), 6, dof());
       return true;
     } catch (...) {
-      if (!error) error = std::current_exception();
+      keep();
       return false;
     }
-  }
-
-  /// Raises the kept exception, if any (and forgets it).
-  void raise() const {
-    if (!error) return;
-    std::exception_ptr e = error;
-    error = nullptr;
-    std::rethrow_exception(e);
   }
 };
 
 // ibvs.sim.Sensor for Python subclasses (ibvs.vision.ImageSensor): measure()
 // calls the subclass's measure(frame, pose, projected, twist) -> (N, 2) pixels
 // (NaN rows: lost points) and reset() its reset(seed). A Python exception is
-// kept like PyRobot's: measure() returns false (the episode stops, diverged)
+// kept (KeptError): measure() returns false (the episode stops, diverged)
 // and the binding raises it after the run (or at once for the goal frame).
-class PySensor : public Sensor {
+class PySensor : public Sensor, public KeptError {
  public:
-  mutable std::exception_ptr error;
-
   void reset(std::uint64_t seed) noexcept override {
     try {
       py::gil_scoped_acquire gil;
-      error = nullptr;
+      forget();
       py::function f = py::get_override(static_cast<const Sensor*>(this), "reset");
       if (f) f(seed);
     } catch (...) {
-      if (!error) error = std::current_exception();
+      keep();
     }
   }
 
   bool measure(const SensorFrame& frame, Eigen::Ref<Points> measured) noexcept override {
-    if (error) return false;  // reset() failed
+    if (failed()) return false;  // reset() failed
     try {
       py::gil_scoped_acquire gil;
       py::function f = py::get_override(static_cast<const Sensor*>(this), "measure");
@@ -136,16 +145,9 @@ class PySensor : public Sensor {
       measured = Eigen::Map<const Eigen::Matrix<double, 2, Eigen::Dynamic>>(a.data(), 2, n);
       return true;
     } catch (...) {
-      if (!error) error = std::current_exception();
+      keep();
       return false;
     }
-  }
-
-  void raise() const {
-    if (!error) return;
-    std::exception_ptr e = error;
-    error = nullptr;
-    std::rethrow_exception(e);
   }
 };
 
@@ -280,8 +282,8 @@ void bind_sim(py::module_& m) {
       .def_static("paper", &Target::paper, "Paper Table I: the points (+-0.25, +-0.25, 3) in the world.")
       .def_static(
           "square",
-          [](double side, py::handle pose) {
-            return Target::square(side, pose.is_none() ? Pose(Pose::Identity()) : pose_arg(pose, "pose"));
+          [](py::handle side, py::handle pose) {
+            return Target::square(real(side, "side"), pose.is_none() ? Pose(Pose::Identity()) : pose_arg(pose, "pose"));
           },
           py::arg("side") = 0.1, py::arg("pose") = py::none(),
           "Four dots at the corners of a square (side in metres) in the target's z = 0 plane.")
@@ -319,7 +321,7 @@ Robot(q_min, q_max, qdot_max, mount, frame="end_effector", damping=0.0, singular
   damping, singular_region  of the JointMapping that turns the camera twist into joint velocities
 The episode loop calls kinematics() once per frame and holds the GIL for such a robot.)")
       .def(py::init([](py::handle q_min, py::handle q_max, py::handle qdot_max, py::handle mount, py::handle frame,
-                       double damping, double singular_region) {
+                       py::handle damping, py::handle singular_region) {
              auto r = std::make_unique<PyRobot>();
              r->q_min = limits_arg(q_min, "q_min");
              const int n = r->dof();
@@ -327,8 +329,8 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
              r->qdot_max = joint_vector_arg(qdot_max, "qdot_max", n);
              r->mount = pose_arg(mount, "mount");
              r->mapping.frame = frame_arg(frame);
-             r->mapping.damping = damping;
-             r->mapping.singular_region = singular_region;
+             r->mapping.damping = real(damping, "damping");
+             r->mapping.singular_region = real(singular_region, "singular_region");
              r->validate();
              return r;
            }),

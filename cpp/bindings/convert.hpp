@@ -78,6 +78,9 @@ inline MatrixX6 matrix_x6(const CArray& a, const char* name) {
   return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>>(a.data(), a.shape(0), 6);
 }
 
+/// A double as Python prints it (repr of a float: 1e-08, not to_string's 0.000000).
+inline std::string float_repr(double x) { return py::repr(py::float_(x)); }
+
 /// A real scalar (Python int or float, numpy real scalar or 0-d array); not
 /// bool, complex or str. TypeError / ValueError naming the argument.
 inline double real(py::handle obj, const char* name) {
@@ -85,6 +88,14 @@ inline double real(py::handle obj, const char* name) {
   const CArray a = as_array(obj, name);
   if (a.ndim() != 0) throw py::type_error(std::string(name) + " must be a real number, got shape " + shape_of(a));
   return *a.data();
+}
+
+/// A bool (Python's or numpy's), nothing else: "no", 0 or None are refused rather than read as
+/// true or false. TypeError naming the argument.
+inline bool boolean(py::handle obj, const char* name) {
+  if (obj.ptr() == Py_True || obj.ptr() == Py_False) return obj.ptr() == Py_True;
+  if (type_name(obj) == "bool" || type_name(obj) == "bool_") return PyObject_IsTrue(obj.ptr()) == 1;
+  throw py::type_error(std::string(name) + " must be a bool, got " + type_name(obj));
 }
 
 /// Depth: a scalar for every point, or an (n,) vector; written into `out` (size n).

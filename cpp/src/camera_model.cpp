@@ -1,5 +1,7 @@
 #include "ibvs/camera_model.hpp"
 
+#include "ibvs/limits.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -139,8 +141,10 @@ CameraModel CameraModel::from_visp(double px, double py, double u0, double v0, d
   c.u_max_ = width;
   c.v_max_ = height;
   c.fps_ = fps;
-  if (!(std::isfinite(width) && width > 0.0)) fail("width must be finite and > 0, got " + num(width));
-  if (!(std::isfinite(height) && height > 0.0)) fail("height must be finite and > 0, got " + num(height));
+  if (!(width > 0.0 && width <= max_pixel_coordinate))
+    fail("width must be in (0, " + num(max_pixel_coordinate) + "] px, got " + num(width));
+  if (!(height > 0.0 && height <= max_pixel_coordinate))
+    fail("height must be in (0, " + num(max_pixel_coordinate) + "] px, got " + num(height));
   if (!std::isfinite(kud)) fail("kud must be finite, got " + num(kud));
   if (!std::isfinite(kdu)) fail("kdu must be finite, got " + num(kdu));
   c.validate();
@@ -173,6 +177,7 @@ CameraModel CameraModel::from_opencv(const Eigen::Matrix3d& K, const Eigen::Ref<
     const bool any = std::any_of(c.k_.begin(), c.k_.end(), [](double k) { return k != 0.0; });
     c.distortion_ = any ? Distortion::plumb_bob : Distortion::none;
   }
+  c.validate();
   c.set_domain();
   return c;
 }
@@ -240,16 +245,32 @@ Eigen::Matrix3d CameraModel::K() const noexcept {
 }
 
 void CameraModel::validate() const {
-  if (!(std::isfinite(px_) && px_ > 0.0)) fail("camera px (fx) must be finite and > 0, got " + num(px_));
-  if (!(std::isfinite(py_) && py_ > 0.0)) fail("camera py (fy) must be finite and > 0, got " + num(py_));
-  if (!(std::isfinite(u0_) && std::isfinite(v0_))) fail("camera u0, v0 (cx, cy) must be finite");
+  const auto focal = [](double f, const char* name) {
+    if (!(f >= min_focal_length && f <= max_focal_length))
+      fail(std::string("camera ") + name + " must be in [" + num(min_focal_length) + ", " + num(max_focal_length) +
+           "] px, got " + num(f));
+  };
+  const auto pixel = [](double x, const char* name) {
+    if (!(std::abs(x) <= max_pixel_coordinate))
+      fail(std::string("camera ") + name + " must be finite and within +-" + num(max_pixel_coordinate) + " px, got " +
+           num(x));
+  };
+  focal(px_, "px (fx)");
+  focal(py_, "py (fy)");
+  pixel(u0_, "u0 (cx)");
+  pixel(v0_, "v0 (cy)");
   for (double k : k_)
-    if (!std::isfinite(k)) fail("camera distortion coefficients must be finite");
-  if (!(std::isfinite(u_min_) && std::isfinite(u_max_) && u_min_ < u_max_))
-    fail("camera bounds need u_min < u_max (width > 0)");
-  if (!(std::isfinite(v_min_) && std::isfinite(v_max_) && v_min_ < v_max_))
-    fail("camera bounds need v_min < v_max (height > 0)");
-  if (!(std::isfinite(fps_) && fps_ > 0.0)) fail("camera fps must be finite and > 0, got " + num(fps_));
+    if (!(std::abs(k) <= max_distortion_coefficient))
+      fail("camera distortion coefficients must be finite and within +-" + num(max_distortion_coefficient) + ", got " +
+           num(k));
+  pixel(u_min_, "bound u_min");
+  pixel(u_max_, "bound u_max");
+  pixel(v_min_, "bound v_min");
+  pixel(v_max_, "bound v_max");
+  if (!(u_min_ < u_max_)) fail("camera bounds need u_min < u_max (width > 0)");
+  if (!(v_min_ < v_max_)) fail("camera bounds need v_min < v_max (height > 0)");
+  if (!(fps_ > 0.0 && fps_ <= max_frame_rate))
+    fail("camera fps must be in (0, " + num(max_frame_rate) + "], got " + num(fps_));
 }
 
 // The radius where each model's radial map stops increasing (see the header).

@@ -1,5 +1,7 @@
 #include "ibvs/depth_estimator.hpp"
 
+#include "checks.hpp"
+
 #include <Eigen/LU>
 
 #include <algorithm>
@@ -13,26 +15,38 @@ namespace {
 
 [[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("ibvs: " + what); }
 
+using detail::number;
+
 void check_prior(const Eigen::Ref<const Eigen::VectorXd>& prior) {
   if (prior.size() < 1) fail("prior must hold at least one depth");
   for (Eigen::Index i = 0; i < prior.size(); ++i)
-    if (!(prior(i) > 0.0) || !std::isfinite(prior(i)))
-      fail("prior[" + std::to_string(i) + "] = " + std::to_string(prior(i)) + " must be finite and > 0 (metres)");
+    if (!detail::valid_depth(prior(i)))
+      fail("prior[" + std::to_string(i) + "] = " + number(prior(i)) + " m must be in [" + number(min_depth) + ", " +
+           number(max_depth) + "] m");
 }
 
 void check_options(const DepthEstimatorOptions& o) {
-  const auto nonneg = [](double x, const char* name) {
-    if (!(x >= 0.0) || !std::isfinite(x)) fail(std::string(name) + " must be finite and >= 0, got " + std::to_string(x));
+  const auto in = [](double x, double lo, double hi, const char* name) {
+    if (!(x >= lo && x <= hi))
+      fail(std::string(name) + " must be in [" + number(lo) + ", " + number(hi) + "], got " + number(x));
   };
-  nonneg(o.point_noise, "point_noise");
-  nonneg(o.process_noise, "process_noise");
-  nonneg(o.position_noise, "position_noise");
-  if (!(o.prior_uncertainty > 0.0) || !std::isfinite(o.prior_uncertainty))
-    fail("prior_uncertainty must be finite and > 0, got " + std::to_string(o.prior_uncertainty));
-  if (!(o.min_depth > 0.0) || !std::isfinite(o.min_depth))
-    fail("min_depth must be finite and > 0, got " + std::to_string(o.min_depth));
-  if (!(o.max_depth_ratio > 1.0) || !std::isfinite(o.max_depth_ratio))
-    fail("max_depth_ratio must be finite and > 1, got " + std::to_string(o.max_depth_ratio));
+  in(o.point_noise, 0.0, max_normalized_coordinate, "point_noise");
+  in(o.position_noise, 0.0, max_normalized_coordinate, "position_noise");
+  in(o.process_noise, 0.0, max_estimator_noise, "process_noise");
+  in(o.prior_uncertainty, 0.0, max_estimator_noise, "prior_uncertainty");
+  if (!(o.prior_uncertainty > 0.0)) fail("prior_uncertainty must be > 0, got 0");
+  in(o.min_depth, min_depth, max_depth, "min_depth");
+  if (!(o.max_depth_ratio > 1.0 && o.max_depth_ratio <= max_depth / min_depth))
+    fail("max_depth_ratio must be in (1, " + number(max_depth / min_depth) + "], got " + number(o.max_depth_ratio));
+}
+
+// The camera's motion between frames: rigid, its translation within max_depth (the same test for
+// validate() and update()).
+bool valid_motion(const Pose& motion) noexcept {
+  if (!motion.allFinite() || motion.topRightCorner<3, 1>().cwiseAbs().maxCoeff() > max_depth) return false;
+  const Eigen::Matrix3d R = motion.topLeftCorner<3, 3>();
+  return (R.transpose() * R).isIdentity(1e-9) && std::abs(R.determinant() - 1.0) <= 1e-9 && motion(3, 0) == 0.0 &&
+         motion(3, 1) == 0.0 && motion(3, 2) == 0.0 && motion(3, 3) == 1.0;
 }
 
 }  // namespace
@@ -96,7 +110,7 @@ bool DepthEstimator::update(const Eigen::Ref<const Points>& uv, const Twist& twi
 
 bool DepthEstimator::update(const Eigen::Ref<const Points>& uv, const Pose& motion) noexcept {
   restarts_ = 0;
-  if (uv.cols() != prior_.size() || !uv.allFinite() || !motion.allFinite()) return false;
+  if (uv.cols() != prior_.size() || !detail::valid_points(uv) || !valid_motion(motion)) return false;
   if (!initialized_) {
     initialize(uv);
     finish();
@@ -162,12 +176,10 @@ void DepthEstimator::validate(const Eigen::Ref<const Points>& uv, const Pose& mo
   if (uv.cols() != prior_.size())
     fail("uv must hold " + std::to_string(prior_.size()) + " points (this estimator's), got " +
          std::to_string(uv.cols()));
-  for (Eigen::Index i = 0; i < uv.cols(); ++i)
-    if (!uv.col(i).allFinite()) fail("uv[" + std::to_string(i) + "] is not finite");
-  const Eigen::Matrix3d R = motion.topLeftCorner<3, 3>();
-  if (!motion.allFinite() || !(R.transpose() * R).isIdentity(1e-9) || std::abs(R.determinant() - 1.0) > 1e-9 ||
-      motion(3, 0) != 0.0 || motion(3, 1) != 0.0 || motion(3, 2) != 0.0 || motion(3, 3) != 1.0)
-    fail("motion must be a rigid transform (orthonormal rotation, last row 0 0 0 1)");
+  detail::check_points(uv, "uv", static_cast<int>(uv.cols()));
+  if (!valid_motion(motion))
+    fail("motion must be a rigid transform (orthonormal rotation, last row 0 0 0 1) moving at most " +
+         number(max_depth) + " m");
 }
 
 }  // namespace ibvs

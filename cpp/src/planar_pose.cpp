@@ -1,5 +1,7 @@
 #include "ibvs/planar_pose.hpp"
 
+#include "checks.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -21,7 +23,8 @@ PlanarPose::PlanarPose(const Eigen::Matrix3Xd& points, int iterations) : points_
   if (points_.cols() < 4)
     throw std::invalid_argument("ibvs: points: a planar pose needs at least 4 target points, got " +
                                 std::to_string(points_.cols()));
-  if (!points_.allFinite()) throw std::invalid_argument("ibvs: points must be finite");
+  if (!(points_.cwiseAbs().maxCoeff() <= max_depth))
+    throw std::invalid_argument("ibvs: points must be finite and within +-" + detail::number(max_depth) + " m");
   for (Eigen::Index i = 0; i < points_.cols(); ++i)
     if (std::abs(points_(2, i)) > 1e-12)
       throw std::invalid_argument("ibvs: points: a planar pose needs a planar target (all points with z = 0), point " +
@@ -34,6 +37,13 @@ PlanarPose::PlanarPose(const Eigen::Matrix3Xd& points, int iterations) : points_
   if (!(ev(0) > 1e-12 * ev(1)))
     throw std::invalid_argument("ibvs: points: the target points lie on one line (no pose from them)");
   if (iterations_ < 0) throw std::invalid_argument("ibvs: iterations must be >= 0, got " + std::to_string(iterations_));
+}
+
+void PlanarPose::validate(const Eigen::Ref<const Points>& uv) const {
+  if (uv.cols() != points_.cols())
+    throw std::invalid_argument("ibvs: uv must hold " + std::to_string(points_.cols()) + " points (the target's), got " +
+                                std::to_string(uv.cols()));
+  detail::check_points(uv, "uv", static_cast<int>(uv.cols()));
 }
 
 bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T, Eigen::Ref<Eigen::VectorXd> depth) const noexcept {
@@ -62,7 +72,7 @@ Eigen::Matrix3d normaliser(Eigen::Index n, Get get) {
 
 bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noexcept {
   const Eigen::Index n = points_.cols();
-  if (uv.cols() != n || !uv.allFinite()) return false;
+  if (uv.cols() != n || !detail::valid_points(uv)) return false;
   // 1. Homography image ~ H (X, Y, 1) by the normalised DLT.
   const Eigen::Matrix3d Nm = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(points_.block<2, 1>(0, i)); });
   const Eigen::Matrix3d Ni = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(uv.col(i)); });

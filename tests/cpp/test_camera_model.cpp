@@ -113,6 +113,16 @@ void opencv_models() {
   skew(0, 1) = 1.0;
   CHECK_THROWS(CameraModel::from_opencv(skew, barrel, 640, 480));
   CHECK_THROWS(CameraModel::from_opencv(K_of(600, 320, 240), barrel, 640, -480));
+  // Scale limits (ibvs/limits.hpp): focal lengths, principal point, image size, coefficients, frame rate.
+  CHECK_THROWS(CameraModel::from_opencv(K_of(1e-300, 320, 240), barrel, 640, 480));
+  CHECK_THROWS(CameraModel::from_opencv(K_of(1e300, 320, 240), barrel, 640, 480));
+  CHECK_THROWS(CameraModel::from_opencv(K_of(600, 1e300, 240), barrel, 640, 480));
+  CHECK_THROWS(CameraModel::from_opencv(K_of(600, 320, 240), barrel, 1e12, 480));
+  CHECK_THROWS(CameraModel::from_opencv(K_of(600, 320, 240), Eigen::VectorXd::Constant(5, 1e300), 640, 480));
+  CHECK_THROWS(CameraModel::from_opencv(K_of(600, 320, 240), barrel, 640, 480, false, 1e9));
+  CHECK_THROWS(CameraModel::from_visp(1e300, 600, 320, 240, 0.0, 0.0, 640, 480));
+  CHECK(CameraModel::from_opencv(K_of(max_focal_length / 1.002, 320, 240), barrel, max_pixel_coordinate, 480).py() ==
+        max_focal_length);  // the limits themselves are accepted
   CHECK(CameraModel::from_opencv(b.K(), b.opencv_coefficients(), 640, 480) == b);
 }
 

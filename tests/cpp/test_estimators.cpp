@@ -93,6 +93,16 @@ void motion_forms_and_refusals() {
   Pose skew = Md;
   skew(0, 1) += 0.1;
   CHECK_THROWS(a.validate(uv1, skew));
+  CHECK(!a.update(uv1, skew) && a.depth() == before);  // validate() and update() agree on every refusal
+  Points pixels = uv1 * 600.0;                          // beyond max_normalized_coordinate: pixels by mistake
+  CHECK_THROWS(a.validate(pixels, Md));
+  CHECK(!a.update(pixels, Md) && a.depth() == before);
+  Pose far = Md;
+  far(0, 3) = 2.0 * max_depth;
+  CHECK_THROWS(a.validate(uv1, far));
+  CHECK(!a.update(uv1, far) && a.depth() == before);
+  CHECK_THROWS(DepthEstimator(Eigen::VectorXd::Constant(n, 0.5 * min_depth)));
+  CHECK_THROWS(DepthEstimator(Eigen::VectorXd::Constant(n, 2.0 * max_depth)));
   a.reset();
   CHECK(!a.initialized());
   CHECK(a.update(uv1, Md) && a.depth() == Eigen::VectorXd::Ones(n));  // initialised from the prior

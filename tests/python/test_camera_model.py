@@ -265,6 +265,32 @@ def test_bad_input():
         ibvs.CameraModel(1000, 1000, 320, 240, fps=0)
 
 
+@pytest.mark.parametrize(
+    "make, exc, name",
+    [
+        (lambda: ibvs.CameraModel.from_opencv(np.diag([1e-300, 1e-300, 1.0]), None, W, H), ValueError, "fx"),
+        (lambda: ibvs.CameraModel.from_opencv(np.diag([1e300, 600, 1.0]), None, W, H), ValueError, "fx"),
+        (lambda: ibvs.CameraModel(1000, 1e-300, 320, 240), ValueError, "fy"),
+        (lambda: ibvs.CameraModel(1000, 1000, 1e300, 240), ValueError, "cx"),
+        (lambda: ibvs.CameraModel.from_opencv(K, [1e300, 0, 0, 0, 0], W, H), ValueError, "distortion"),
+        (lambda: ibvs.CameraModel.from_opencv(K, PLUMB_BOB, 2**40, H), ValueError, "width"),
+        (lambda: ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H, fps=1e12), ValueError, "fps"),
+        (lambda: ibvs.CameraModel.from_opencv(K, PLUMB_BOB, True, H), TypeError, "width"),
+        (lambda: ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H, fisheye="no"), TypeError, "fisheye"),
+        (lambda: ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H, fisheye=0), TypeError, "fisheye"),
+        (lambda: ibvs.CameraModel(1000, 1000, 320, 240, width=1 + 2j), TypeError, "width"),
+        (lambda: ibvs.CameraModel(1000, 1000, 320, 240, fps="60"), TypeError, "fps"),
+        (lambda: ibvs.CameraModel.normalized(True), TypeError, "bounds"),
+    ],
+)
+def test_scale_limits_and_types_refused_by_name(make, exc, name):
+    """Finite but absurd parameters (ibvs/limits.hpp: focal lengths in [1e-3, 1e7] px, principal point and
+    image within 1e7 px, coefficients within 1e4, fps up to 1e6) and non-real or non-bool arguments are
+    refused, naming the argument, instead of giving a camera whose normalize() overflows."""
+    with pytest.raises(exc, match=name):
+        make()
+
+
 def test_to_opencv_round_trip():
     for cam in (
         ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H),

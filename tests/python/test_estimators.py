@@ -77,6 +77,22 @@ def test_depth_estimator_bad_input():
         est.update(uv, [0, 0, np.nan, 0, 0, 0])
     with pytest.raises(ValueError, match="prior must hold 5"):
         est.reset(np.ones(4))
+    # scale limits: depths in [1e-6, 1e6] m, |uv| <= 10 (pixels by mistake), a motion of at most 1e6 m
+    for prior in (1e-300, 1e300):
+        with pytest.raises(ValueError, match=r"prior\[0\]"):
+            ibvs.DepthEstimator(np.full(5, prior))
+    with pytest.raises(ValueError, match="CameraModel.normalize"):
+        est.update(uv * 1000.0, np.eye(4))
+    far = np.eye(4)
+    far[0, 3] = 1e300
+    with pytest.raises(ValueError, match="motion"):
+        est.update(uv, far)
+    with pytest.raises(ValueError, match="prior_uncertainty"):
+        ibvs.DepthEstimator(np.ones(3), prior_uncertainty=1e200)
+    for name in ("point_noise", "prior_uncertainty", "process_noise", "position_noise", "min_depth",
+                 "max_depth_ratio"):
+        with pytest.raises(TypeError, match=name):
+            ibvs.DepthEstimator(np.ones(3), **{name: True})
     assert not est.initialized  # nothing above changed it
 
 
@@ -119,6 +135,14 @@ def test_planar_pose():
         ibvs.PlanarPose(np.zeros((4, 2)))
     with pytest.raises(ValueError, match="iterations"):
         ibvs.PlanarPose(target.points, iterations=-1)
+    with pytest.raises(ValueError, match="iterations"):
+        ibvs.PlanarPose(target.points, iterations=10**30)
+    with pytest.raises(TypeError, match="iterations"):
+        ibvs.PlanarPose(target.points, iterations=True)
+    with pytest.raises(ValueError, match="CameraModel.normalize"):  # pixels by mistake
+        est.estimate(P[:, :2] / P[:, 2:] * 800 + 320)
+    with pytest.raises(ValueError, match="points must be finite and within"):
+        ibvs.PlanarPose(target.points * 1e300)
 
 
 def motions(history):

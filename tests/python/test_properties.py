@@ -271,6 +271,25 @@ def test_update_refuses_non_real_arrays_naming_the_argument(value, exc):
         ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0, damping=1j)
 
 
+def test_switches_are_bools_not_truthy_values():
+    """A string, a number or None given for an on/off option is refused, not read as its truth value
+    ("no" would be True)."""
+    from ibvs import sim
+
+    for value in ("no", 0, None, 1.0):
+        with pytest.raises(TypeError, match="diagnostics"):
+            ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0, diagnostics=value)
+        with pytest.raises(TypeError, match="exact_diagnostics"):
+            ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0, exact_diagnostics=value)
+        with pytest.raises(TypeError, match="diagnostics"):
+            ibvs.Servo.automatic_hybrid(4, gain=1.0, diagnostics=value)
+        with pytest.raises(TypeError, match="stop_on_singular"):
+            sim.run(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0), sim.Camera.normalized(), sim.Target.paper(),
+                    sim.pose(t=(0, 0, -0.5)), np.eye(4), duration=0.1, stop_on_singular=value)
+    ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0, diagnostics=np.bool_(False), exact_diagnostics=np.bool_(True))
+    assert "damping=1e-08" in repr(ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0, damping=1e-8))
+
+
 @given(st.sampled_from(["cartesian", "polar", "stacked", "cylindrical"]),
        st.one_of(st.integers(-5, 3), st.integers(10**6 - 1, 10**6 + 1), st.integers(2**31 - 1, 2**100)))
 def test_layout_sizes_refused_naming_the_argument(kind, n):

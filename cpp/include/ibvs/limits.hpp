@@ -40,4 +40,19 @@ inline constexpr double max_matrix_entry = 1e150;
 /// Entries of a twist given to se3_exp (the motion it returns stays finite).
 inline constexpr double max_twist_entry = 1e300;
 
+/// Camera models (CameraModel::validate): focal lengths in [1e-3, 1e7] px,
+/// principal point and image bounds within +-1e7 px, distortion coefficients
+/// within +-1e4, frame rates up to 1 MHz. Real cameras sit orders of
+/// magnitude inside; outside them normalize() would overflow or lose every
+/// digit of a pixel.
+inline constexpr double min_focal_length = 1e-3;
+inline constexpr double max_focal_length = 1e7;
+inline constexpr double max_pixel_coordinate = 1e7;
+inline constexpr double max_distortion_coefficient = 1e4;
+inline constexpr double max_frame_rate = 1e6;
+
+/// Estimator noise and uncertainty settings (DepthEstimatorOptions): their
+/// squares and products with 1/z^2 stay finite.
+inline constexpr double max_estimator_noise = 1e6;
+
 }  // namespace ibvs

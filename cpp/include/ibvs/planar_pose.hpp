@@ -37,9 +37,12 @@ class PlanarPose {
   const Eigen::Matrix3Xd& points() const noexcept { return points_; }
   int iterations() const noexcept { return iterations_; }
 
+  /// Throws std::invalid_argument naming uv when estimate() would refuse it
+  /// (wrong size, a point not finite or beyond ibvs::max_normalized_coordinate).
+  void validate(const Eigen::Ref<const Points>& uv) const;
   /// Camera <- target pose from normalised image points uv (2 x N). Returns
-  /// false when the estimate is degenerate (wrong size, non-finite points,
-  /// collinear image, a point behind the camera); T is then unchanged.
+  /// false when validate() would refuse uv or the estimate is degenerate
+  /// (collinear image, a point behind the camera); T is then unchanged.
   bool estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noexcept;
   /// The same, and the points' depths (N) in the camera frame (unchanged when degenerate).
   bool estimate(const Eigen::Ref<const Points>& uv, Pose& T, Eigen::Ref<Eigen::VectorXd> depth) const noexcept;

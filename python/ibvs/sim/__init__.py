@@ -214,6 +214,12 @@ def _describe_servo(servo) -> str:
     return out
 
 
+def _bool(x, name: str) -> bool:
+    if not isinstance(x, (bool, np.bool_)):  # "no" or 0 are not read as a truth value
+        raise TypeError(f"{name} must be a bool, got {type(x).__name__}")
+    return bool(x)
+
+
 def _real(x, name: str) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a real number, got {type(x).__name__}")
@@ -322,7 +328,7 @@ def run(
         tolerance=float(tolerance),
         max_depth_ratio=float(max_depth_ratio),
         max_error_ratio=float(max_error_ratio),
-        stop_on_singular=bool(stop_on_singular),
+        stop_on_singular=_bool(stop_on_singular, "stop_on_singular"),
         depth_scale=_real(depth_scale, "depth_scale"),
         boundary_margin=_real(boundary_margin, "boundary_margin"),
         boundary_gain=_real(boundary_gain, "boundary_gain"),
