@@ -238,19 +238,25 @@ class Renderer:
         self._rng = np.random.default_rng(seed)
         self._noise_table = None  # drawn from the new generator at the next noisy frame
 
-    def _noise(self) -> np.ndarray:
-        """This frame's sensor noise (height, width), float32: a window at a random offset into a table of
-        (2 height, 2 width) normals drawn once per seed. Within a frame the values are independent normals of
-        std `noise`; from frame to frame a pixel reads an unrelated table entry (the same one only when two
-        frames draw the same offset, 1 in 300,000 at 640x480). Drawing fresh normals every frame costs 1.5 ms
-        at 640x480; the window costs nothing but the add."""
+    def _noise(self, cv2) -> Tuple[Optional[np.ndarray], np.ndarray]:
+        """This frame's sensor noise (height, width), float32 (None without noise), and the background with
+        that noise, quantised to uint8 (a fresh array: the frame is drawn into it).
+
+        The noise is a window at a random offset into a table of (2 height, 2 width) normals drawn once per
+        seed. Within a frame the values are independent normals of std `noise`; from frame to frame a pixel
+        reads an unrelated table entry (the same one only when two frames draw the same offset, 1 in 300,000
+        at 640x480). Drawing fresh normals every frame costs 1.5 ms at 640x480; the window costs a copy."""
         W, H = self.size
-        if self._noise_table is None or self._noise_table[1] != self.noise:
+        if self.noise == 0:
+            return None, np.full((H, W), round(self.background), np.uint8)
+        if self._noise_table is None or self._noise_table[1] != (self.noise, self.background):
             table = self._rng.standard_normal((2 * H, 2 * W), dtype=np.float32)
             table *= np.float32(self.noise)
-            self._noise_table = (table, self.noise)
+            quantised = cv2.add(table, np.full_like(table, self.background), dtype=cv2.CV_8U)
+            self._noise_table = (table, (self.noise, self.background), quantised)
         dy, dx = (int(i) for i in self._rng.integers(0, [H + 1, W + 1]))
-        return self._noise_table[0][dy : dy + H, dx : dx + W]
+        table, _, quantised = self._noise_table
+        return table[dy : dy + H, dx : dx + W], quantised[dy : dy + H, dx : dx + W].copy()
 
     # -- set-up (allocates; once) --
     def _build_texture(self, cv2, lo, hi, xy) -> None:
@@ -402,7 +408,7 @@ class Renderer:
                     for j in range(1, self.MOTION_SAMPLES)
                 ]
         W, H = self.size
-        img = np.full((H, W), self.background, np.float32)
+        region = None  # the sensor pixels the plate covers: ((x0, y0, x1, y1), float32 gray levels)
         Hs = [Hp for Hp in (self._homography(p) for p in poses)]
         visible = [Hp for Hp in Hs if Hp is not None]
         if visible:
@@ -425,9 +431,9 @@ class Renderer:
                 sx0, sy0, sx1, sy1 = self._sensor_box(box)
                 if sx1 > sx0 and sy1 > sy0:
                     if self._map is None:
-                        img[sy0:sy1, sx0:sx1] = pin[sy0 - box[1] : sy1 - box[1], sx0 - box[0] : sx1 - box[0]]
+                        pixels = pin[sy0 - box[1] : sy1 - box[1], sx0 - box[0] : sx1 - box[0]]
                     else:
-                        img[sy0:sy1, sx0:sx1] = cv2.remap(
+                        pixels = cv2.remap(
                             pin,
                             self._map[0][sy0:sy1, sx0:sx1] - np.float32(box[0]),
                             self._map[1][sy0:sy1, sx0:sx1] - np.float32(box[1]),
@@ -435,11 +441,24 @@ class Renderer:
                             borderMode=cv2.BORDER_CONSTANT,
                             borderValue=float(self.background),
                         )
-        if self.blur > 0:
+                    region = ((sx0, sy0, sx1, sy1), pixels)
+        noise, out = self._noise(cv2)
+        if self.blur > 0:  # defocus spreads the plate over the background: the whole frame in float
+            img = np.full((H, W), self.background, np.float32)
+            if region is not None:
+                (sx0, sy0, sx1, sy1), pixels = region
+                img[sy0:sy1, sx0:sx1] = pixels
             img = cv2.GaussianBlur(img, (0, 0), self.blur)
-        # noise, then 8-bit quantisation in the same pass: cv2.add into CV_8U rounds to nearest (ties to
-        # even) and saturates to [0, 255]
-        return cv2.add(img, self._noise() if self.noise > 0 else 0.0, dtype=cv2.CV_8U)
+            # noise, then 8-bit quantisation in one pass: cv2.add into CV_8U rounds to nearest (ties to even)
+            # and saturates to [0, 255]
+            return cv2.add(img, 0.0 if noise is None else noise, dtype=cv2.CV_8U)
+        # sharp: the background with its noise comes quantised with the noise table; only the plate's region
+        # is added and quantised here (the same sums and rounding as over the whole frame)
+        if region is not None:
+            (sx0, sy0, sx1, sy1), pixels = region
+            n = 0.0 if noise is None else noise[sy0:sy1, sx0:sx1]
+            out[sy0:sy1, sx0:sx1] = cv2.add(pixels, n, dtype=cv2.CV_8U)
+        return out
 
     def __repr__(self) -> str:
         what = (
