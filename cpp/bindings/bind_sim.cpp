@@ -31,7 +31,9 @@ Joints joints_arg(py::handle obj, const char* name) {
   const CArray a = as_array(obj, name);
   if (a.ndim() != 1 || a.shape(0) != 6)
     throw py::value_error(std::string(name) + " must be 6 joint positions, got shape " + shape_of(a));
-  return Eigen::Map<const Joints>(a.data());
+  const Joints q = Eigen::Map<const Joints>(a.data());
+  if (!q.allFinite()) throw py::value_error(std::string(name) + " must be finite");
+  return q;
 }
 
 /// (n,) joint values of a robot with n joints.
@@ -40,6 +42,13 @@ JointVector joint_vector_arg(py::handle obj, const char* name, int n) {
   if (a.ndim() != 1 || a.shape(0) != n)
     throw py::value_error(std::string(name) + " must have shape (" + std::to_string(n) + ",), got " + shape_of(a));
   return Eigen::Map<const Eigen::VectorXd>(a.data(), n);
+}
+
+/// (n,) finite joint positions of a robot with n joints.
+JointVector q_arg(py::handle obj, int n) {
+  JointVector q = joint_vector_arg(obj, "q", n);
+  if (!q.allFinite()) throw py::value_error("q must be finite");
+  return q;
 }
 
 /// (n,) limits, 1 <= n <= max_joints (n from the first of them).
@@ -348,33 +357,33 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
       .def_property_readonly("damping", [](const Robot& r) { return r.mapping.damping; })
       .def_property_readonly("singular_region", [](const Robot& r) { return r.mapping.singular_region; })
       .def(
-          "kinematics", [](Robot& r, py::handle q) { return kinematics_of(r, joint_vector_arg(q, "q", r.dof())); },
+          "kinematics", [](Robot& r, py::handle q) { return kinematics_of(r, q_arg(q, r.dof())); },
           py::arg("q"), "(T_we (4, 4) world <- end-effector, J (6, n) end-effector Jacobian in `frame`) at q.")
       .def(
           "camera",
           [](Robot& r, py::handle q) {
-            const JointVector qv = joint_vector_arg(q, "q", r.dof());
+            const JointVector qv = q_arg(q, r.dof());
             return calling_kinematics(r, [&] { return Eigen::Matrix4d(r.camera(qv)); });
           },
           py::arg("q"), "world <- camera, 4x4.")
       .def(
           "jacobian",
           [](Robot& r, py::handle q) {
-            const JointVector qv = joint_vector_arg(q, "q", r.dof());
+            const JointVector qv = q_arg(q, r.dof());
             return calling_kinematics(r, [&] { return Eigen::MatrixXd(r.camera_jacobian(qv)); });
           },
           py::arg("q"), "(6, n) camera Jacobian: camera twist (camera frame) = J @ qdot.")
       .def(
           "joint_velocity",
           [](Robot& r, py::handle q, py::handle v) {
-            const JointVector qv = joint_vector_arg(q, "q", r.dof());
+            const JointVector qv = q_arg(q, r.dof());
             const Twist t = twist_arg(v, "twist");
             return calling_kinematics(r, [&] { return Eigen::VectorXd(r.joint_velocity(qv, t)); });
           },
           py::arg("q"), py::arg("twist"),
           "Joint velocities (n,) for the camera twist at q, by the robot's JointMapping (before the speed limits).")
       .def(
-          "outside_limits", [](const Robot& r, py::handle q) { return r.outside_limits(joint_vector_arg(q, "q", r.dof())); },
+          "outside_limits", [](const Robot& r, py::handle q) { return r.outside_limits(q_arg(q, r.dof())); },
           py::arg("q"), "Index of the first joint outside its range, or -1.")
       .def("__repr__", &Robot::describe);
 

@@ -2,10 +2,21 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, settings
 
 import ibvs
+
+# Property tests (hypothesis): the same examples on every run by default, so that CI is reproducible and a
+# failure is seen again; IBVS_HYPOTHESIS=explore draws new random examples (10 times as many) to hunt for
+# more (a test's own @settings(max_examples=...) keeps its count).
+settings.register_profile("ibvs", derandomize=True, deadline=None, max_examples=150,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("explore", deadline=None, max_examples=1500, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile(os.environ.get("IBVS_HYPOTHESIS", "ibvs"))
 
 #: The paper's target points in the world (Table I), metres.
 TARGET = np.array([[0.25, 0.25, 3.0], [-0.25, 0.25, 3.0], [-0.25, -0.25, 3.0], [0.25, -0.25, 3.0]])

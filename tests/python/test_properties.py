@@ -12,14 +12,12 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import assume, given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import ibvs
 
-settings.register_profile("ibvs", max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-settings.load_profile("ibvs")
 
 BOUND = 10.0  # ibvs::max_normalized_coordinate
 ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True, width=64)

@@ -1,0 +1,167 @@
+"""Property-based tests (hypothesis) of the public Python functions test_properties.py does not
+cover: area_scale, segment_angle and their Jacobians, singular_values, PartitionedServo,
+Servo.update_pixels, joint_velocities / JointMapping and ibvs.sim.run. The rule is the same:
+every input is answered with finite numbers or refused with ValueError/TypeError naming the
+argument; the refusals are the documented limits (README, "Scale limits")."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+import ibvs
+from ibvs import sim
+
+from test_properties import COORD, DEPTH, finite, points, valid_depths, valid_points
+
+# Entries of matrices and twists: plausible, or anything from subnormal to 1e300.
+ENTRY = st.one_of(st.floats(-2.0, 2.0), st.floats(allow_nan=True, allow_infinity=True, width=64),
+                  st.sampled_from([0.0, 5e-324, 1e-300, 1e-150, 1e150, 1e300]))
+
+
+def refused_by_name(e: Exception, *names: str) -> bool:
+    return isinstance(e, (ValueError, TypeError)) and any(n in str(e) for n in names)
+
+
+@settings(max_examples=80)
+@given(points(4), hnp.arrays(np.float64, 4, elements=DEPTH), st.integers(-1, 4), st.integers(-1, 4))
+def test_area_and_segment_features_finite_or_refused(uv, z, i, j):
+    for name, call in [
+        ("area_scale", lambda: ibvs.area_scale(uv)),
+        ("area_scale_jacobian", lambda: ibvs.area_scale_jacobian(uv, z)),
+        ("segment_angle", lambda: ibvs.segment_angle(uv, i, j)),
+        ("segment_angle_jacobian", lambda: ibvs.segment_angle_jacobian(uv, z, i, j)),
+    ]:
+        try:
+            out = call()
+        except (ValueError, TypeError) as e:
+            assert refused_by_name(e, "uv", "depth", "i", "j", "segment", "point"), (name, e)
+            continue
+        assert finite(out), (name, uv, z, i, j, out)
+        assert valid_points(uv), (name, "accepted points beyond the limit", uv)
+        if "jacobian" in name:
+            assert valid_depths(z), (name, "accepted depths beyond the limit", z)
+
+
+@settings(max_examples=80)
+@given(st.integers(1, 16), st.data())
+def test_singular_values_finite_or_refused(m, data):
+    J = data.draw(hnp.arrays(np.float64, (m, 6), elements=ENTRY))
+    try:
+        s = ibvs.singular_values(J)
+    except ValueError as e:
+        assert "J" in str(e)
+        assert not (np.isfinite(J).all() and np.abs(J).max() <= 1e150), (J, e)
+        return
+    assert finite(s) and (s >= 0).all() and np.all(np.diff(s) <= 0)
+    assert np.allclose(s, np.linalg.svd(J, compute_uv=False), rtol=1e-9, atol=1e-12 * max(1.0, np.abs(J).max()))
+
+
+@settings(max_examples=80)
+@given(points(4), hnp.arrays(np.float64, 4, elements=DEPTH), points(4),
+       st.sampled_from([0.0, 1e-9, 0.05]), st.sampled_from([0.5, 1e250]))
+def test_partitioned_servo_finite_or_refused(uv, z, uvd, damping, gain):
+    servo = ibvs.PartitionedServo(4, gain=gain, damping=damping)
+    try:
+        r = servo.update(uv, z, uvd)
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, "uv", "depth", "uv_desired"), e
+        # beyond the limits, or a geometry without the partitioned features: the segment's two points on
+        # top of each other (its angle undefined), points enclosing no area (no area feature)
+        degenerate = "coincide" in str(e) or "no area" in str(e)
+        assert degenerate or not (valid_points(uv) and valid_points(uvd) and valid_depths(z)), e
+        return
+    assert valid_points(uv) and valid_points(uvd) and valid_depths(z)
+    assert finite(r.velocity), (uv, z, uvd, r.velocity)
+
+
+CAMERA = ibvs.CameraModel.from_opencv(np.array([[600.0, 0, 320], [0, 601, 240], [0, 0, 1]]),
+                                      [-0.28, 0.07, 0.001, -0.0005, 0.01], 640, 480)
+PIXEL = st.one_of(st.floats(0.0, 640.0), st.floats(allow_nan=True, allow_infinity=True, width=64),
+                  st.sampled_from([-1e6, 1e300, 5e-324]))
+
+
+@settings(max_examples=80)
+@given(hnp.arrays(np.float64, (4, 2), elements=PIXEL), hnp.arrays(np.float64, 4, elements=DEPTH))
+def test_update_pixels_finite_or_refused(px, z):
+    servo = ibvs.Servo(ibvs.Layout.stacked(4), gain=0.5, camera=CAMERA)
+    goal = np.array([[270.0, 190], [370, 190], [370, 290], [270, 290]])
+    try:
+        r = servo.update_pixels(px, z, goal)
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, "pixels", "depth"), e
+        return
+    assert finite(px) and valid_depths(z)
+    assert finite(r.velocity)
+
+
+@settings(max_examples=80)
+@given(hnp.arrays(np.float64, 6, elements=ENTRY), st.integers(1, 8), st.data(),
+       st.sampled_from([0.0, 1e-6, 0.1]), st.sampled_from([None, 0.5]))
+def test_joint_velocities_finite_or_refused(twist, n, data, damping, max_speed):
+    J = data.draw(hnp.arrays(np.float64, (6, n), elements=ENTRY))
+    try:
+        qdot = ibvs.joint_velocities(twist, np.eye(4), J, damping=damping,
+                                     max_joint_speed=None if max_speed is None else np.full(n, max_speed))
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, "twist", "jacobian"), e
+        # only non-finite entries, or magnitudes whose pseudoinverse or product overflows
+        entries = np.abs(np.concatenate([twist, J.ravel()]))
+        assert not np.isfinite(entries).all() or entries.max() > 1e100 or entries[entries > 0].min() < 1e-100, e
+        return
+    assert qdot.shape == (n,) and finite(qdot), (twist, J, qdot)
+    if max_speed is not None:
+        assert np.abs(qdot).max() <= max_speed * (1 + 1e-12)
+
+
+CASE = sim.cases.general_motion()
+SERVO = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
+RUN_NUMBER = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64), st.integers(-3, 3),
+                       st.sampled_from([True, 1j, "1", None, 1e300, 1e-300]))
+
+
+@settings(max_examples=60)
+@given(st.sampled_from(["duration", "noise", "tolerance", "depth_scale", "boundary_margin", "boundary_gain",
+                        "standoff_ratio", "max_depth_ratio", "max_error_ratio", "latency", "seed"]), RUN_NUMBER)
+def test_sim_run_arguments_finite_or_refused(name, value):
+    """One argument of sim.run at a time, anything; a short run (at most 0.2 s simulated)."""
+    kwargs = dict(duration=0.2)
+    kwargs[name] = value
+    if name == "duration" and isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0.2:
+        kwargs[name] = 0.2  # long runs are the CLI tests' business; the limits are the same
+    try:
+        r = sim.run(SERVO, CASE.camera, CASE.target, CASE.start, CASE.goal, **kwargs)
+    except (ValueError, TypeError) as e:
+        assert name in str(e), (name, value, e)
+        return
+    assert not isinstance(value, (bool, complex, str)) and value is not None, (name, value)
+    assert np.isfinite(r.history.twist).all() and np.isfinite(r.metrics.path_length), (name, value)
+
+
+GANTRY = sim.cases.gantry_general_motion().robot
+
+
+@settings(max_examples=80)
+@given(hnp.arrays(np.float64, 6, elements=ENTRY))
+def test_robot_helpers_finite_or_refused(q):
+    """The gantry's kinematic helpers at any joint values: finite answers, or q refused by name."""
+    for name, call in [
+        ("camera", lambda: GANTRY.camera(q)),
+        ("kinematics", lambda: GANTRY.kinematics(q)),
+        ("end_effector", lambda: GANTRY.end_effector(q)),
+        ("jacobian", lambda: GANTRY.jacobian(q)),
+        ("manipulability", lambda: GANTRY.manipulability(q)),
+        ("joint_velocity", lambda: GANTRY.joint_velocity(q, np.full(6, 0.1))),
+        ("outside_limits", lambda: GANTRY.outside_limits(q)),
+    ]:
+        try:
+            out = call()
+        except ValueError as e:
+            assert "q" in str(e) or "kinematics" in str(e), (name, e)
+            assert not np.isfinite(q).all() or name == "joint_velocity", (name, q, e)
+            continue
+        assert np.isfinite(q).all(), (name, "accepted", q)
+        assert all(finite(x) for x in (out if isinstance(out, tuple) else (out,))), (name, q, out)
