@@ -38,10 +38,6 @@ Representation representation(py::handle obj, const std::string& name) {
   throw py::value_error(name + " must be 'cartesian', 'polar' or 'cylindrical', got '" + s + "'");
 }
 
-const char* representation_name(Representation r) {
-  return r == Representation::polar ? "polar" : r == Representation::cylindrical ? "cylindrical" : "cartesian";
-}
-
 InteractionMatrix interaction(const std::string& s) {
   if (s == "current") return InteractionMatrix::current;
   if (s == "desired") return InteractionMatrix::desired;
@@ -192,10 +188,17 @@ n_points defaults to the largest point index + 1.)")
       .def_property_readonly("rows", &Layout::rows, "M, the number of feature rows (2 per block).")
       .def_property_readonly("n_points", &Layout::n_points, "N, the number of image points.")
       .def_property_readonly("blocks",
-                             [](const Layout& l) {
-                               py::list out;
-                               for (const Block& b : l.blocks())
-                                 out.append(py::make_tuple(b.point, representation_name(b.representation)));
+                             [](const Layout& l) {  // one str per representation, shared by the tuples
+                               const py::str names[3] = {py::str("cartesian"), py::str("polar"),
+                                                         py::str("cylindrical")};
+                               py::list out(l.blocks().size());
+                               std::size_t k = 0;
+                               for (const Block& b : l.blocks()) {
+                                 const int r = b.representation == Representation::polar         ? 1
+                                               : b.representation == Representation::cylindrical ? 2
+                                                                                                 : 0;
+                                 out[k++] = py::make_tuple(b.point, names[r]);
+                               }
                                return out;
                              },
                              "List of (point_index, representation) in row order.")
