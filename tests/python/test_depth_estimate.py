@@ -74,7 +74,7 @@ def test_depth_scale():
     assert np.allclose(b.history.depth[0], 1.5 * a.history.depth[0])
     c = run(case, duration=1.0, depth="desired", depth_scale=0.5)
     assert np.allclose(c.history.depth, 0.5 * c.depth_desired)
-    for bad in (0.0, -1.0, float("inf")):
+    for bad in (0.0, -1.0, float("inf"), 1e-300, 1e300, 9e-4, 1.1e3):  # [1e-3, 1e3], the sweeps' limits too
         with pytest.raises(ValueError, match="depth_scale"):
             run(case, duration=1.0, depth_scale=bad)
     with pytest.raises(TypeError, match="depth_scale"):

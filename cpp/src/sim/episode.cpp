@@ -47,7 +47,8 @@ void EpisodeOptions::validate() const {
   if (!(min_depth > 0.0) || !std::isfinite(min_depth)) fail("min_depth must be finite and > 0");
   if (!(max_depth_ratio > 1.0)) fail("max_depth_ratio must be > 1");
   if (!(max_error_ratio > 1.0)) fail("max_error_ratio must be > 1");
-  if (!(depth_scale > 0.0) || !std::isfinite(depth_scale)) fail("depth_scale must be finite and > 0");
+  // a factor of 1000 either way is already no depth at all; beyond it the servo would refuse every frame
+  if (!(depth_scale >= 1e-3 && depth_scale <= 1e3)) fail("depth_scale must be in [0.001, 1000]");
   if (!(boundary_margin >= 0.0) || !std::isfinite(boundary_margin)) fail("boundary_margin must be finite and >= 0");
   if (!(boundary_gain >= 0.0) || !std::isfinite(boundary_gain)) fail("boundary_gain must be finite and >= 0");
   if (!(standoff_ratio >= 0.0) || !std::isfinite(standoff_ratio)) fail("standoff_ratio must be finite and >= 0");

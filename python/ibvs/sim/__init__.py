@@ -272,7 +272,7 @@ def run(
         "estimated" (online, per point, from successive frames and the camera's motion
         between them as the robot reports it: a Kalman filter on the point and its
         inverse depth (x, y, 1/z), initialised at depth_scale * z*).
-    depth_scale: > 0, multiplies the depth given to the controller (a depth calibration
+    depth_scale: in [1e-3, 1e3], multiplies the depth given to the controller (a depth calibration
         error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).
     tolerance: converged when the servo's error norm is below this.

@@ -155,7 +155,7 @@ struct EpisodeOptions {
   double max_depth_ratio = 10.0;   ///< diverged when the target's depth exceeds this times its start depth
   double max_error_ratio = 100.0;  ///< diverged when the error norm exceeds this times its first value
   bool stop_on_singular = true;    ///< end with `singular` when the servo reports it
-  double depth_scale = 1.0;        ///< > 0: multiplies the depth given to the controller (estimated: its initial guess)
+  double depth_scale = 1.0;        ///< in [1e-3, 1e3]: multiplies the depth given to the controller (estimated: its initial guess)
   double boundary_margin = 0.0;    ///< >= 0, measurement units; 0 = no image-boundary potential
   double boundary_gain = 0.1;      ///< >= 0, 1/s; weight of the boundary potential's Tz retreat
   /// >= 0: collision when the camera centre comes closer to the target than this times the
