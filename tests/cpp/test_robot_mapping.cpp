@@ -94,7 +94,7 @@ void reproduces_the_twist() {
   }
   ibvs_test::report(worst < 1e-9, "Jc qdot = v (n >= 6), minimum norm, = LU (n = 6)", __FILE__, __LINE__,
                     std::to_string(worst));
-  CHECK(skipped < ibvs_test::cases / 50);
+  CHECK(skipped <= ibvs_test::cases / 50);  // at most 2 % of the cases (none of a small run)
   ibvs_test::report(worst_ls < 1e-9, "normal equations (n < 6)", __FILE__, __LINE__, std::to_string(worst_ls));
 }
 
