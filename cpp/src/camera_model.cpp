@@ -145,8 +145,10 @@ CameraModel CameraModel::from_visp(double px, double py, double u0, double v0, d
     fail("width must be in (0, " + num(max_pixel_coordinate) + "] px, got " + num(width));
   if (!(height > 0.0 && height <= max_pixel_coordinate))
     fail("height must be in (0, " + num(max_pixel_coordinate) + "] px, got " + num(height));
-  if (!std::isfinite(kud)) fail("kud must be finite, got " + num(kud));
-  if (!std::isfinite(kdu)) fail("kdu must be finite, got " + num(kdu));
+  if (!(std::abs(kud) <= max_distortion_coefficient))
+    fail("kud must be finite and within +-" + num(max_distortion_coefficient) + ", got " + num(kud));
+  if (!(std::abs(kdu) <= max_distortion_coefficient))
+    fail("kdu must be finite and within +-" + num(max_distortion_coefficient) + ", got " + num(kdu));
   c.validate();
   c.set_domain();
   return c;
@@ -159,6 +161,10 @@ CameraModel CameraModel::from_opencv(const Eigen::Matrix3d& K, const Eigen::Ref<
   if (K(1, 0) != 0.0 || K(2, 0) != 0.0 || K(2, 1) != 0.0 || K(2, 2) != 1.0)
     fail("K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]");
   if (!dist.allFinite()) fail("dist must be finite");
+  for (Eigen::Index i = 0; i < dist.size(); ++i)
+    if (!(std::abs(dist(i)) <= max_distortion_coefficient))
+      fail("dist[" + std::to_string(i) + "] must be within +-" + num(max_distortion_coefficient) + ", got " +
+           num(dist(i)));
   CameraModel c = pinhole(K(0, 0), K(1, 1), K(0, 2), K(1, 2), width, height, fps);
   const Eigen::Index n = dist.size();
   if (fisheye) {
@@ -191,6 +197,10 @@ CameraModel CameraModel::make(double px, double py, double u0, double v0, Distor
   if (coefficients.size() != count[d])
     fail(std::string("coefficients: the ") + to_string(distortion) + " model takes " + std::to_string(count[d]) +
          ", got " + std::to_string(coefficients.size()));
+  for (Eigen::Index i = 0; i < coefficients.size(); ++i)
+    if (!(std::abs(coefficients(i)) <= max_distortion_coefficient))
+      fail("coefficients[" + std::to_string(i) + "] must be finite and within +-" + num(max_distortion_coefficient) +
+           ", got " + num(coefficients(i)));
   CameraModel c;
   c.px_ = px;
   c.py_ = py;
@@ -209,7 +219,8 @@ CameraModel CameraModel::make(double px, double py, double u0, double v0, Distor
 }
 
 CameraModel CameraModel::normalized(double bounds, double fps) {
-  if (!(std::isfinite(bounds) && bounds > 0.0)) fail("bounds must be finite and > 0, got " + num(bounds));
+  if (!(bounds > 0.0 && bounds <= max_pixel_coordinate))
+    fail("bounds must be in (0, " + num(max_pixel_coordinate) + "], got " + num(bounds));
   CameraModel c;
   c.u_min_ = c.v_min_ = -bounds;
   c.u_max_ = c.v_max_ = bounds;

@@ -164,7 +164,9 @@ bool DepthEstimator::update(const Eigen::Ref<const Points>& uv, const Pose& moti
       C = Eigen::Vector3d(r, r, sd * sd).asDiagonal();
       ++restarts_;
     }
-    s(2) = std::clamp(s(2), 1.0 / (options_.max_depth_ratio * prior_(i)), 1.0 / options_.min_depth);
+    // depth within [min_depth, max_depth_ratio * prior]; a prior so small that this range is empty keeps min_depth
+    const double rho_max = 1.0 / options_.min_depth;
+    s(2) = std::clamp(s(2), std::min(1.0 / (options_.max_depth_ratio * prior_(i)), rho_max), rho_max);
     state_.col(i) = s;
     Pi = C;
   }

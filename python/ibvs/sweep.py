@@ -41,6 +41,7 @@ import os
 import signal
 import sys
 import time
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
@@ -516,13 +517,14 @@ def _worker(conn, spec: SweepSpec, factories: Optional[dict]) -> None:
         if chunk is None:
             return
         try:
-            reply = ("rows", _run_batch(spec, chunk, factories))
-        except Exception as e:  # re-raised in the parent, as a pool would
-            reply = ("error", e)
+            reply = ("rows", _run_batch(spec, chunk, factories), None)
+        except Exception as e:  # re-raised in the parent, as a pool would, with the worker's traceback
+            reply = ("error", e, traceback.format_exc())
         try:
             conn.send(reply)
-        except Exception as e:  # an unpicklable exception: its text
-            conn.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}") if reply[0] == "error" else e))
+        except Exception as e:  # an unpicklable result or exception: its text
+            what = RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}") if reply[0] == "error" else e
+            conn.send(("error", what, traceback.format_exc()))
 
 
 def _run_local(n_workers: int, spec: SweepSpec, chunks: list, factories: Optional[dict], take) -> None:
@@ -551,11 +553,12 @@ def _run_local(n_workers: int, spec: SweepSpec, chunks: list, factories: Optiona
         while busy:
             for conn in wait(list(busy)):
                 try:
-                    kind, value = conn.recv()
+                    kind, value, where = conn.recv()
                 except EOFError:
+                    busy[conn].join(1)  # reaped, so that its exit code is known
                     raise RuntimeError(f"a sweep worker died (exit code {busy[conn].exitcode})") from None
                 if kind == "error":
-                    raise value
+                    raise value from RuntimeError(f"in the sweep worker:\n{where}")
                 take(value)
                 chunk = next(todo, None)
                 if chunk is None:

@@ -195,3 +195,29 @@ def test_planar_pose_finite_or_degenerate(points):
         R = pose[:3, :3]
         assert np.isfinite(pose).all() and np.isfinite(depth).all()
         assert np.allclose(R.T @ R, np.eye(3), atol=1e-9) and np.isclose(np.linalg.det(R), 1.0)
+
+
+def test_planar_pose_refuses_a_nan_target_point():
+    """A NaN anywhere in the target (here the last point's z, which the planarity test alone lets through)."""
+    pts = np.asarray(sim.Target.square(0.1).points, dtype=float).copy()
+    pts[-1, 2] = np.nan
+    with pytest.raises(ValueError, match="points must be finite"):
+        ibvs.PlanarPose(pts)
+
+
+def test_estimated_depth_with_huge_noise_runs():
+    """sim.run's noise has no upper limit; the depth filter's point noise is capped at its own (10 normalised
+    units) instead of refusing the episode with an option the caller never gave."""
+    case = sim.cases.general_motion()
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
+    r = sim.run(servo, case.camera, case.target, case.start, case.goal, duration=0.2, depth="estimated", noise=50.0)
+    assert np.isfinite(r.history.twist).all()
+
+
+def test_depth_bounds_with_a_tiny_prior():
+    """max_depth_ratio * prior below min_depth: the depths stay at min_depth (the clamp's range is ordered)."""
+    est = ibvs.DepthEstimator(np.full(4, 1e-5), min_depth=1e-3)
+    uv = np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]])
+    est.update(uv, np.eye(4))
+    depth, variance = est.update(uv * 1.01, np.zeros(6))
+    assert np.all(depth == 1e-3) and np.isfinite(variance).all()

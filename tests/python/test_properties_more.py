@@ -6,6 +6,9 @@ argument; the refusals are the documented limits (README, "Scale limits")."""
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -23,7 +26,9 @@ ENTRY = st.one_of(st.floats(-2.0, 2.0), st.floats(allow_nan=True, allow_infinity
 
 
 def refused_by_name(e: Exception, *names: str) -> bool:
-    return isinstance(e, (ValueError, TypeError)) and any(n in str(e) for n in names)
+    """A ValueError/TypeError whose message names one of the arguments (as a word: "i" is not "is")."""
+    return isinstance(e, (ValueError, TypeError)) and any(re.search(rf"(?<![\w.]){re.escape(n)}\b", str(e))
+                                                          for n in names)
 
 
 @settings(max_examples=80)
@@ -38,7 +43,13 @@ def test_area_and_segment_features_finite_or_refused(uv, z, i, j):
         try:
             out = call()
         except (ValueError, TypeError) as e:
-            assert refused_by_name(e, "uv", "depth", "i", "j", "segment", "point"), (name, e)
+            assert refused_by_name(e, "uv", "depth", "i", "j"), (name, e)
+            # refused only beyond the limits, for a bad segment (i, j) or a degenerate image
+            segment = "segment" in name
+            bad_ij = segment and not (0 <= i < 4 and 0 <= j < 4 and i != j)
+            degenerate = "coincide" in str(e) or "no area" in str(e) or "area" in str(e)
+            assert (not valid_points(uv) or ("jacobian" in name and not valid_depths(z)) or bad_ij
+                    or degenerate), (name, uv, z, i, j, e)
             continue
         assert finite(out), (name, uv, z, i, j, out)
         assert valid_points(uv), (name, "accepted points beyond the limit", uv)
@@ -123,6 +134,22 @@ RUN_NUMBER = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
                        st.sampled_from([True, 1j, "1", None, 1e300, 1e-300]))
 
 
+# sim.run's documented ranges (its docstring): round(duration * fps) frames in [1, 1e7], ...
+VALID = {
+    "duration": lambda x: 0 < x < np.inf and 1 <= math.floor(x * CASE.camera.fps + 0.5) <= 1e7,
+    "noise": lambda x: 0 <= x < np.inf,
+    "tolerance": lambda x: 0 <= x < np.inf,
+    "depth_scale": lambda x: 1e-3 <= x <= 1e3,
+    "boundary_margin": lambda x: 0 <= x < np.inf,
+    "boundary_gain": lambda x: 0 <= x < np.inf,
+    "standoff_ratio": lambda x: 0 <= x < np.inf,
+    "max_depth_ratio": lambda x: 1 < x,
+    "max_error_ratio": lambda x: 1 < x,
+    "latency": lambda x: isinstance(x, int) and 0 <= x <= 1000,
+    "seed": lambda x: isinstance(x, int) and 0 <= x < 2**64,
+}
+
+
 @settings(max_examples=60)
 @given(st.sampled_from(["duration", "noise", "tolerance", "depth_scale", "boundary_margin", "boundary_gain",
                         "standoff_ratio", "max_depth_ratio", "max_error_ratio", "latency", "seed"]), RUN_NUMBER)
@@ -136,8 +163,11 @@ def test_sim_run_arguments_finite_or_refused(name, value):
         r = sim.run(SERVO, CASE.camera, CASE.target, CASE.start, CASE.goal, **kwargs)
     except (ValueError, TypeError) as e:
         assert name in str(e), (name, value, e)
+        real = isinstance(value, (int, float)) and not isinstance(value, bool)
+        assert not real or not VALID[name](kwargs[name]), (name, value, "refused inside the documented range", e)
         return
     assert not isinstance(value, (bool, complex, str)) and value is not None, (name, value)
+    assert VALID[name](kwargs[name]), (name, value, "accepted outside the documented range")
     assert np.isfinite(r.history.twist).all() and np.isfinite(r.metrics.path_length), (name, value)
 
 

@@ -114,23 +114,28 @@ def test_registry_and_bad_arguments(tmp_path):
         sw.sweep(bad, episodes=1, progress=False)
 
 
+def _broken_in_workers(parent: int, gain: float):
+    """A scheme factory that works in the caller (the sweep may try it there first) and fails in workers.
+    Module level, so that any multiprocessing start method can send it (functools.partial of it)."""
+    import os
+
+    if os.getpid() == parent:
+        return ibvs.Servo(ibvs.Layout.polar(4), gain=gain)
+    raise ValueError("boom from a worker")
+
+
 def test_a_worker_error_reaches_the_caller_and_no_worker_is_left():
+    import functools
     import multiprocessing
     import os
 
-    parent = os.getpid()
-
-    def broken(gain):
-        if os.getpid() == parent:  # the sweep may try the factory in the caller first: only workers fail
-            return ibvs.Servo(ibvs.Layout.polar(4), gain=gain)
-        raise ValueError("boom from a worker")
-
-    sw.register_scheme("broken", broken)
+    sw.register_scheme("broken", functools.partial(_broken_in_workers, os.getpid()))
     try:
-        with pytest.raises(ValueError, match="boom from a worker"):
+        with pytest.raises(ValueError, match="boom from a worker") as info:
             sw.sweep(None, jobs=2, batch=2, schemes=["broken"], **{**SMALL, "episodes": 20})
     finally:
         del sw.SCHEMES["broken"]
+    assert "_broken_in_workers" in str(info.value.__cause__)  # the worker's traceback comes along
     assert multiprocessing.active_children() == []
 
 

@@ -40,18 +40,20 @@
 
 namespace ibvs {
 
+// Limits (ibvs/limits.hpp): noises of points within max_normalized_coordinate, of rho and the prior's
+// uncertainty within max_estimator_noise, min_depth within [min_depth, max_depth] of limits.hpp.
 struct DepthEstimatorOptions {
-  double point_noise = 0.0;        ///< std of a measured point, normalised units (pixel noise / focal length), >= 0
-  double prior_uncertainty = 1.0;  ///< std of the prior inverse depth relative to it, > 0 (1 = 100 %)
-  double process_noise = 1e-4;     ///< std added to rho per update, relative to rho, >= 0
-  double position_noise = 1e-6;    ///< std added to x and y per update, normalised units, >= 0
-  double min_depth = 1e-3;         ///< metres, > 0: depths are kept >= min_depth
-  double max_depth_ratio = 100.0;  ///< > 1: depths are kept <= max_depth_ratio * prior
+  double point_noise = 0.0;        ///< std of a measured point, normalised units (pixel noise / focal length), in [0, 10]
+  double prior_uncertainty = 1.0;  ///< std of the prior inverse depth relative to it, in (0, 1e6] (1 = 100 %)
+  double process_noise = 1e-4;     ///< std added to rho per update, relative to rho, in [0, 1e6]
+  double position_noise = 1e-6;    ///< std added to x and y per update, normalised units, in [0, 10]
+  double min_depth = 1e-3;         ///< metres, in [1e-6, 1e6]: depths are kept >= min_depth
+  double max_depth_ratio = 100.0;  ///< in (1, 1e12]: depths are kept <= max_depth_ratio * prior (>= min_depth)
 };
 
 class DepthEstimator {
  public:
-  /// prior: initial depth guess per point, metres, > 0 (N >= 1). Throws
+  /// prior: initial depth guess per point, metres, in [1e-6, 1e6] (N >= 1). Throws
   /// std::invalid_argument naming the bad argument.
   explicit DepthEstimator(const Eigen::Ref<const Eigen::VectorXd>& prior, DepthEstimatorOptions options = {});
 

@@ -1,5 +1,7 @@
 #include "ibvs/sim/episode.hpp"
 
+#include "ibvs/limits.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -116,7 +118,8 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   }
   if (options_.depth == DepthMode::estimated) {  // its prior is set by prepare(), from the goal
     DepthEstimatorOptions eo;
-    eo.point_noise = options_.noise / std::min(camera_.px(), camera_.py());
+    // capped at the estimator's limit: noise of 10 normalised units (84 degrees) is no measurement at all
+    eo.point_noise = std::min(options_.noise / std::min(camera_.px(), camera_.py()), max_normalized_coordinate);
     eo.min_depth = options_.min_depth;
     depth_estimator_.emplace(Eigen::VectorXd::Ones(n), eo);
   }

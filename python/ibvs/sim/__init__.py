@@ -221,6 +221,9 @@ def _bool(x, name: str) -> bool:
 
 
 def _real(x, name: str) -> float:
+    """A real scalar: int, float, a numpy real scalar or 0-d array (not bool, complex or str)."""
+    if isinstance(x, np.ndarray) and x.ndim == 0 and x.dtype.kind in "iuf":
+        return float(x)
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a real number, got {type(x).__name__}")
     return float(x)
