@@ -504,13 +504,19 @@ def sweep(
     return sorted((r for k, r in rows.items() if k in keep), key=lambda r: (r["index"], r["scheme"]))
 
 
-def _worker(conn, spec: SweepSpec, factories: Optional[dict]) -> None:
+def _worker(conn, spec: SweepSpec, factories: Optional[dict], inherited: list, parent: int) -> None:
     """A local worker process: runs the batches the parent sends on its own pipe until it sends None
-    (or closes the pipe). Ctrl-C and SIGTERM are the parent's, which kills the workers."""
+    (or closes the pipe). Ctrl-C and SIGTERM are the parent's, which kills the workers. A parent that
+    dies without a word (SIGKILL) is noticed within a second: the worker exits after its batch."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    for c in inherited:  # the parent's ends of the pipes, copied by fork: held here, they would hide its death
+        c.close()
     while True:
         try:
+            while not conn.poll(1.0):
+                if os.getppid() != parent:
+                    return
             chunk = conn.recv()
         except EOFError:
             return
@@ -537,9 +543,11 @@ def _run_local(n_workers: int, spec: SweepSpec, chunks: list, factories: Optiona
     workers: list = []
     finished = False
     try:
+        fork = ctx.get_start_method() == "fork"
         for _ in range(min(n_workers, len(chunks))):
             parent, child = ctx.Pipe()
-            p = ctx.Process(target=_worker, args=(child, spec, factories), daemon=True)
+            inherited = [c for _, c in workers] + [parent] if fork else []
+            p = ctx.Process(target=_worker, args=(child, spec, factories, inherited, os.getpid()), daemon=True)
             p.start()
             child.close()
             workers.append((p, parent))

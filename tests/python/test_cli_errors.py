@@ -162,8 +162,9 @@ def test_signal_stops_a_sweep_within_a_second(tmp_path, sig):
     out = tmp_path / "s.csv"
     args = ["sweep", "--out", str(out), "--episodes", "3000", "--duration", "10", "--jobs", "2", "--batch", "5",
             "--schemes", "polar", "cartesian", "--quiet"]
+    # SIGINT as a terminal delivers it: a shell's background job (how CI may run us) inherits it ignored
     p = subprocess.Popen([sys.executable, "-m", "ibvs", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True)
+                         text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and (not out.exists() or out.read_text().count("\n") < 12):
@@ -174,10 +175,10 @@ def test_signal_stops_a_sweep_within_a_second(tmp_path, sig):
         p.send_signal(sig)
         _, err = p.communicate(timeout=10)
         elapsed = time.monotonic() - t0
-    finally:  # a hung sweep must not outlive the test (nor its workers, which exit when its pipes close)
+    finally:  # a hung sweep must not outlive the test; its workers notice within a second and exit
         if p.poll() is None:
             p.kill()
-            p.communicate()
+            p.communicate(timeout=30)
     assert elapsed < 1.0, elapsed
     assert p.returncode == (130 if sig == signal.SIGINT else 143)
     lines = err.strip().splitlines()
@@ -193,3 +194,26 @@ def test_signal_stops_a_sweep_within_a_second(tmp_path, sig):
     again = [r["id"] for r in sw.load(out)]
     assert len(again) == len(set(again)) == len(ids) + 10 and set(ids) < set(again)
     assert len(more) == len(ids) + 10
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs /proc to see the worker processes")
+def test_workers_exit_when_the_sweep_is_killed(tmp_path):
+    """SIGKILL leaves the sweep no time to stop its workers: they notice that their parent is gone and exit
+    (within a second, after their batch) instead of running on, holding the caller's pipes."""
+    out = tmp_path / "s.csv"
+    args = ["sweep", "--out", str(out), "--episodes", "3000", "--duration", "10", "--jobs", "2", "--batch", "5",
+            "--schemes", "polar", "cartesian", "--quiet"]
+    p = subprocess.Popen([sys.executable, "-m", "ibvs", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and (not out.exists() or out.read_text().count("\n") < 12):
+        time.sleep(0.05)
+    workers = _children(p.pid)
+    assert len(workers) >= 2
+    t0 = time.monotonic()
+    p.kill()
+    p.communicate(timeout=30)  # returns when the last holder of its stdout and stderr, the workers, is gone
+    assert time.monotonic() - t0 < 5.0
+    time.sleep(0.1)
+    assert not any(_alive(w) for w in workers)
+
