@@ -311,24 +311,10 @@ def test_bad_input():
         tr.reset(np.zeros((3, 2)))
     with pytest.raises(ValueError, match="ids"):
         vision.TagDetector(ids=())
-    with pytest.raises(TypeError, match="vision"):
-        sim.run(
-            ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0),
-            cam,
-            tgt,
-            sim.pose(t=(0, 0, -0.1)),
-            np.eye(4),
-            vision=3,
-        )
-    with pytest.raises(ValueError, match="kind"):
-        sim.run(
-            ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0),
-            cam,
-            tgt,
-            sim.pose(t=(0, 0, -0.1)),
-            np.eye(4),
-            vision="blobs",
-        )
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0)
+    for vision_arg, exc, match in [(3, TypeError, "vision"), ("blobs", ValueError, "kind")]:
+        with pytest.raises(exc, match=match):
+            sim.run(servo, cam, tgt, sim.pose(t=(0, 0, -0.1)), np.eye(4), vision=vision_arg)
 
 
 # --- properties: finite or refused ---
