@@ -160,12 +160,19 @@ def test_sensor_noise_is_white_and_seeded():
     assert not np.array_equal(r.render(np.eye(4)), frames[0])
 
 
-def test_loss_at_the_border_is_reported_by_index():
+def square_of_dots(noise=0.0):
+    """The 640x480 camera 0.6 m in front of a 10 cm square of dots, its renderer and a dot tracker started on
+    the true projections."""
     camera = camera_640()
     target = sim.Target.square(0.1, sim.pose(t=(0.0, 0.0, 0.6)))
-    r = vision.Renderer(camera, target, "dots")
+    r = vision.Renderer(camera, target, "dots", noise=noise)
     tr = vision.DotTracker(4, r.size)
     tr.reset(projected(camera, target, np.eye(4)))
+    return camera, target, r, tr
+
+
+def test_loss_at_the_border_is_reported_by_index():
+    camera, target, r, tr = square_of_dots()
     lost_at = None
     for k in range(200):  # the camera slides left: the target moves right, points 1 and 2 leave first
         t = tr.track(r.render(sim.pose(t=(-0.002 * k, 0, 0))))
@@ -179,11 +186,7 @@ def test_loss_at_the_border_is_reported_by_index():
 
 
 def test_tracker_gate_a_dot_that_jumps_is_lost_not_swapped():
-    camera = camera_640()
-    target = sim.Target.square(0.1, sim.pose(t=(0.0, 0.0, 0.6)))
-    r = vision.Renderer(camera, target, "dots")
-    tr = vision.DotTracker(4, r.size)
-    tr.reset(projected(camera, target, np.eye(4)))
+    camera, target, r, tr = square_of_dots()
     assert tr.track(r.render(np.eye(4))).lost == ()
     # a 60 px jump in one frame (half the dots' spacing): out of every gate
     t = tr.track(r.render(sim.pose(t=(-0.6 * 60 / 800, 0, 0))))
