@@ -14,15 +14,6 @@ using namespace ibvs::py_convert;
 
 namespace {
 
-JacobianFrame frame_arg(py::handle obj) {
-  if (!py::isinstance<py::str>(obj))
-    throw py::type_error("frame must be 'end_effector' or 'base', got " + type_name(obj));
-  const auto s = obj.cast<std::string>();
-  if (s == "end_effector") return JacobianFrame::end_effector;
-  if (s == "base") return JacobianFrame::base;
-  throw py::value_error("frame must be 'end_effector' or 'base', got '" + s + "'");
-}
-
 Pose pose4(py::handle obj, const char* name) {
   const CArray a = as_array(obj, name);
   if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)

@@ -60,16 +60,6 @@ JointVector limits_arg(py::handle obj, const char* name) {
   return Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
 }
 
-JacobianFrame frame_arg(py::handle obj) {
-  if (!py::isinstance<py::str>(obj))
-    throw py::type_error("frame must be 'end_effector' or 'base', got " +
-                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
-  const auto s = obj.cast<std::string>();
-  if (s == "end_effector") return JacobianFrame::end_effector;
-  if (s == "base") return JacobianFrame::base;
-  throw py::value_error("frame must be 'end_effector' or 'base', got '" + s + "'");
-}
-
 // A Python exception cannot cross the noexcept episode loop: a trampoline keeps
 // the first one (keep() in its catch (...)), returns false so that the episode
 // stops, and the binding raises it after the run.

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "ibvs/layout.hpp"
+#include "ibvs/robot_mapping.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -125,6 +126,16 @@ inline int int_in(py::handle obj, const std::string& name, long long lo, long lo
     throw py::value_error(name + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
                           std::string(py::str(i)));
   return static_cast<int>(v);
+}
+
+/// The frame of an end-effector Jacobian: "end_effector" or "base".
+inline JacobianFrame frame_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("frame must be 'end_effector' or 'base', got " + type_name(obj));
+  const auto s = obj.cast<std::string>();
+  if (s == "end_effector") return JacobianFrame::end_effector;
+  if (s == "base") return JacobianFrame::base;
+  throw py::value_error("frame must be 'end_effector' or 'base', got '" + s + "'");
 }
 
 }  // namespace ibvs::py_convert

@@ -52,10 +52,9 @@
 
 #include "ibvs/features.hpp"
 #include "ibvs/pinv.hpp"
+#include "robust.hpp"
 
 #include <Eigen/Core>
-#include <Eigen/QR>
-#include <Eigen/SVD>
 
 #include <algorithm>
 #include <cmath>
@@ -206,30 +205,24 @@ inline bool symmetric_eigenvalues(const Matrix6& A, double ev[6]) noexcept {
 
 /// Solver workspace for one row count: Rows = 8 or 16 (fully unrolled fixed
 /// sizes) or Dynamic with at most MaxRows rows (a compile-time bound keeps
-/// Eigen's temporaries, e.g. inside the Householder QR, on the stack). J has
-/// max(M, 6) rows with rows past M zero, so the QR is always of a tall matrix
-/// ([J; 0]+ = [J+, 0]: the solution is unchanged).
+/// Eigen's temporaries on the stack). J has max(M, 6) rows with rows past M
+/// zero, so the QR of the robust route (robust.hpp, shared by every row
+/// count) is always of a tall matrix ([J; 0]+ = [J+, 0]: the solution is
+/// unchanged).
 template <int Rows, int MaxRows = Rows>
 struct Solver {
   using Jac = Eigen::Matrix<double, Rows, 6, Eigen::ColMajor, MaxRows, 6>;
   using Vec = Eigen::Matrix<double, Rows, 1, Eigen::ColMajor, MaxRows, 1>;
 
   explicit Solver(Eigen::Index rows)
-      : res(Vec::Zero(rows)),
-        qte(Vec::Zero(rows)),
-        qr(rows, 6),
-        svd(6, 6, Eigen::ComputeFullU | Eigen::ComputeFullV),
-        svd_values(6, 6) {}
+      : res(Vec::Zero(rows)), robust_route(rows) {}
 
   Matrix6 N0 = Matrix6::Zero();  ///< J^T J
   Matrix6 N = Matrix6::Zero();   ///< J^T J + lambda^2 I
   Normal normal;                 ///< factor of N (the solve)
   Normal normal0;                ///< factor of N0 when lambda > 0 (the diagnostics)
   Vec res;                       ///< e - J x (refinement)
-  Vec qte;                       ///< Q^T e (robust route)
-  Eigen::HouseholderQR<Jac> qr;
-  Eigen::JacobiSVD<Matrix6> svd;         ///< robust route: U, S, V of R
-  Eigen::JacobiSVD<Matrix6> svd_values;  ///< exact diagnostics: singular values of R only
+  Robust robust_route;           ///< QR of J + SVD of R (robust route, exact diagnostics)
 
   /// x = J+ e by the route decided above (m = rows in use), and what the
   /// diagnostics ask about J's singular values (see the header comment).
@@ -251,11 +244,12 @@ struct Solver {
       }
       return Route::normal;
     }
-    robust(J, e, m, lambda, x);
+    double smin, smax;
+    robust_route.solve(J, e, m, lambda, x, smin, smax);
     if (diagnostics != Diagnostics::off) {
       spectrum.known = true;
-      spectrum.smin = svd.singularValues()(5);
-      spectrum.smax = svd.singularValues()(0);
+      spectrum.smin = smin;
+      spectrum.smax = smax;
       spectrum.singular = spectrum.smin <= singular_tolerance(m) * spectrum.smax;
     }
     return Route::robust;
@@ -294,25 +288,13 @@ struct Solver {
   /// Robust route: QR of J, SVD of its 6x6 R factor, the filter factors of
   /// pinv_factor (singular values at or below rank_tolerance(m, .) dropped).
   void robust(const Jac& J, const Vec& e, Eigen::Index m, double lambda, Twist& x) noexcept {
-    qr.compute(J);
-    const Matrix6 R = qr.matrixQR().template topRows<6>().template triangularView<Eigen::Upper>();
-    svd.compute(R);
-    qte = e;
-    qte.applyOnTheLeft(qr.householderQ().transpose());
-    const auto& s = svd.singularValues();
-    const double tol = rank_tolerance(m, s(0));
-    Twist y = svd.matrixU().transpose() * qte.template head<6>();
-    for (int i = 0; i < 6; ++i) y(i) *= pinv_factor(s(i), lambda, tol);
-    x.noalias() = svd.matrixV() * y;
+    double smin, smax;
+    robust_route.solve(J, e, m, lambda, x, smin, smax);
   }
 
   /// The singular values of J exactly (to rounding): QR of J, then those of R.
   void exact_singular_values(const Jac& J, double& smin, double& smax) noexcept {
-    qr.compute(J);
-    const Matrix6 R = qr.matrixQR().template topRows<6>().template triangularView<Eigen::Upper>();
-    svd_values.compute(R);
-    smin = svd_values.singularValues()(5);
-    smax = svd_values.singularValues()(0);
+    robust_route.singular_values(J, smin, smax);
   }
 
   /// sigma_min, sigma_max of J from the eigenvalues of N0 = J^T J (symmetric_eigenvalues);

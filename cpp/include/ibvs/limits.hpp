@@ -55,4 +55,9 @@ inline constexpr double max_frame_rate = 1e6;
 /// squares and products with 1/z^2 stay finite.
 inline constexpr double max_estimator_noise = 1e6;
 
+/// Largest layout (rows) whose update() is guaranteed allocation-free on every
+/// route: 256 rows = 64 points stacked. Larger layouts work, but the
+/// damping = 0 (QR/SVD) route may then use the heap.
+inline constexpr int max_realtime_rows = 256;
+
 }  // namespace ibvs

@@ -129,11 +129,6 @@ struct ServoOutput {
   mutable bool pending_ = false;  ///< gram_ holds a J^T J whose eigenvalues are not computed yet
 };
 
-/// Largest layout (rows) whose update() is guaranteed allocation-free on every
-/// route: 256 rows = 64 points stacked. Larger layouts work, but the
-/// damping = 0 (QR/SVD) route may then use the heap.
-inline constexpr int max_realtime_rows = 256;
-
 /// The control law. Build once per layout; call update() every frame.
 ///
 /// velocity = -s * g * J+ e with g = options.gain, or options.adaptive_gain(|e|)
