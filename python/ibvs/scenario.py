@@ -47,7 +47,7 @@ from typing import Any, Callable, Mapping, Optional
 import numpy as np
 
 from . import sim
-from .sim.poses import _rotation
+from .sim.poses import rotation_matrix
 
 __all__ = ["ANGLE_WRAPS", "DEPTH_MODES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
 
@@ -290,7 +290,7 @@ def offset(p: Mapping) -> np.ndarray:
     """The start's offset from the goal (4x4, in the goal camera's frame) of parameters p."""
     tilt, d = math.radians(p["tilt_deg"]), math.radians(p["tilt_dir_deg"])
     T = np.eye(4)
-    T[:3, :3] = _rotation(tilt * math.cos(d), tilt * math.sin(d), math.radians(p["rz_deg"]))
+    T[:3, :3] = rotation_matrix(tilt * math.cos(d), tilt * math.sin(d), math.radians(p["rz_deg"]))
     T[:3, 3] = (p["tx"], p["ty"], p["tz"])
     return T
 
@@ -300,7 +300,7 @@ def _rotation_parameters(r) -> dict:
     angles R = Rx(a) Ry(b) Rz(c) with tilt = |(a, b)| and tilt_dir = atan2(b, a)."""
     r = np.asarray(r, dtype=float)
     if r.shape == (3,) and np.isfinite(r).all():
-        r = _rotation(*r)
+        r = rotation_matrix(*r)
     if r.shape != (3, 3) or not np.isfinite(r).all() or not np.allclose(r @ r.T, np.eye(3), atol=1e-9) \
             or np.linalg.det(r) < 0:
         raise ValueError("rotation must return a 3x3 rotation matrix or 3 finite angles (rx, ry, rz) in radians")
