@@ -34,8 +34,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from ._core import CameraModel, se3_exp
-from ._core import sim as _sim
+from .._core import CameraModel, se3_exp
+from .._core import sim as _sim
 
 __all__ = [
     "DotTracker",
