@@ -281,14 +281,14 @@ def _run(args, parser) -> int:
         if name != "paper":
             print(f"  {name:18s} {value}")
     if args.plot:
-        from . import plots
+        from . import viz
 
-        plots.episode(result, title=title).savefig(args.plot, dpi=90)
+        viz.episode(result, title=title).savefig(args.plot, dpi=90)
         print(f"  figure             {args.plot}")
     if args.animate:
-        from . import plots
+        from . import viz
 
-        n = plots.animate(result, args.animate, labels=[title], speed=args.speed)
+        n = viz.animate(result, args.animate, labels=[title], speed=args.speed)
         print(f"  animation          {args.animate} ({n} frames)")
     if args.video:
         from . import vision

@@ -100,7 +100,7 @@ def animation_file(text: str) -> Path:
     except ImportError:
         raise argparse.ArgumentTypeError('animations need matplotlib: pip install ".[plot]" from the ibvs '
                                          'repository root') from None
-    from .animation import check_path
+    from .viz.animation import check_path
 
     try:
         check_path(p)

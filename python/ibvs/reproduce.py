@@ -209,7 +209,7 @@ def wrap_sentence(angle_wrap: str) -> str:
 
 def reproduce(out: Path, quick: bool = False, stream=sys.stdout,
               angle_wrap: str = "consistent") -> tuple[list[Row], list[tuple[str, bool]]]:
-    from . import plots
+    from . import viz
 
     if angle_wrap not in ANGLE_WRAPS:
         raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
@@ -219,8 +219,8 @@ def reproduce(out: Path, quick: bool = False, stream=sys.stdout,
     dpi = 50 if quick else 100
     rows = []
     t0 = time.perf_counter()
-    plots.image_limits().savefig(out / "fig4_image_limits.png", dpi=dpi)
-    fig4 = {name: inside for name, (_, inside) in plots.image_limits_paths().items()}
+    viz.image_limits().savefig(out / "fig4_image_limits.png", dpi=dpi)
+    fig4 = {name: inside for name, (_, inside) in viz.image_limits_paths().items()}
     print(f"[ 0/{len(plan)}] Fig. 4 image-plane limits -> fig4_image_limits.png", file=stream, flush=True)
     for k, (world, case, scheme) in enumerate(plan, 1):
         c, result = run_one(world, case, scheme, angle_wrap=angle_wrap)
@@ -230,7 +230,7 @@ def reproduce(out: Path, quick: bool = False, stream=sys.stdout,
         fig = FIGURES.get((world, case, scheme))
         wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
         title = f"{fig + ': ' if fig else ''}{c.description}, {SCHEME_TITLES[scheme]}{wrap}"
-        plots.episode(result, title=title).savefig(out / name, dpi=dpi)
+        viz.episode(result, title=title).savefig(out / name, dpi=dpi)
         print(f"[{k:2d}/{len(plan)}] {world:6s} {case:13s} {scheme:9s} {row.status:13s} {row.event:9s}"
               f" -> {name}  ({time.perf_counter() - t0:.1f} s)", file=stream, flush=True)
     checks = claims(rows)

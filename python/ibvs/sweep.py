@@ -759,8 +759,8 @@ def format_table(table: list[dict], by: str = "rz_deg") -> str:
 
 
 def figure(table: list[dict], path: Union[str, os.PathLike], by: str = "rz_deg", dpi: int = 90) -> None:
-    """Save ibvs.plots.sweep_summary(table, by): every outcome's rate and the median retreat,
+    """Save ibvs.viz.sweep_summary(table, by): every outcome's rate and the median retreat,
     path and peak twist against the bins of `by`, one curve per scheme."""
-    from . import plots
+    from . import viz
 
-    plots.sweep_summary(table, by).savefig(os.fspath(path), dpi=dpi)
+    viz.sweep_summary(table, by).savefig(os.fspath(path), dpi=dpi)

@@ -8,8 +8,8 @@ returns the history as numpy arrays.
     case = sim.cases.z_rotation()
     result = sim.run(servo, case.camera, case.target, case.start, case.goal, duration=case.duration)
     result.status.outcome, result.metrics.camera_retreat, result.history.twist
-    fig = result.plot()                  # a matplotlib Figure (ibvs.plots.episode)
-    result.animate("run.gif", speed=2)   # camera view and 3D scene (ibvs.plots.animate)
+    fig = result.plot()                  # a matplotlib Figure (ibvs.viz.episode)
+    result.animate("run.gif", speed=2)   # camera view and 3D scene (ibvs.viz.animate)
 
 Frames and conventions are those of ibvs (camera x right, y down, z forward;
 twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera;

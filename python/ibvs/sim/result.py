@@ -126,16 +126,16 @@ class Result:
         return self.status.converged
 
     def plot(self, **kwargs):
-        """A matplotlib Figure of the episode: ibvs.plots.episode(self, **kwargs)."""
-        from .. import plots
+        """A matplotlib Figure of the episode: ibvs.viz.episode(self, **kwargs)."""
+        from .. import viz
 
-        return plots.episode(self, **kwargs)
+        return viz.episode(self, **kwargs)
 
     def animate(self, path, **kwargs) -> int:
-        """Write a GIF or MP4 of the episode: ibvs.plots.animate(self, path, **kwargs)."""
-        from .. import plots
+        """Write a GIF or MP4 of the episode: ibvs.viz.animate(self, path, **kwargs)."""
+        from .. import viz
 
-        return plots.animate(self, path, **kwargs)
+        return viz.animate(self, path, **kwargs)
 
     def __repr__(self) -> str:
         s, m = self.status, self.metrics

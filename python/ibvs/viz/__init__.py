@@ -1,13 +1,13 @@
-"""ibvs.plots: figures of simulated episodes, comparisons of runs, sweeps and the paper's Fig. 4.
+"""ibvs.viz: figures of simulated episodes, comparisons of runs, sweeps and the paper's Fig. 4.
 
     from ibvs import sim
-    import ibvs.plots
+    import ibvs.viz
 
     result = sim.run(servo, case.camera, case.target, case.start, case.goal)
-    fig = result.plot()                            # the same as ibvs.plots.episode(result)
+    fig = result.plot()                            # the same as ibvs.viz.episode(result)
     fig.savefig("run.png")
-    ibvs.plots.compare([a, b], ["polar", "cartesian"]).savefig("compare.png")
-    ibvs.plots.animate(result, "run.gif", speed=2)  # see ibvs.plots.animate (ibvs/animation.py)
+    ibvs.viz.compare([a, b], ["polar", "cartesian"]).savefig("compare.png")
+    ibvs.viz.animate(result, "run.gif", speed=2)
 
 Every function builds a matplotlib.figure.Figure directly, without pyplot, so none of them
 selects or changes matplotlib's backend: save the figure with fig.savefig(...), return it from
@@ -28,7 +28,7 @@ import numpy as np
 
 __all__ = ["animate", "compare", "episode", "image_limits", "image_limits_paths", "square_perimeter_r", "sweep_summary"]
 
-_EXTRA = 'ibvs.plots needs matplotlib: pip install ".[plot]" from the ibvs repository root'
+_EXTRA = 'ibvs.viz needs matplotlib: pip install ".[plot]" from the ibvs repository root'
 
 
 def _figure(fig, size):

@@ -1,4 +1,4 @@
-"""Animations of simulated episodes: ibvs.plots.animate writes them (GIF through Pillow, MP4
+"""Animations of simulated episodes: ibvs.viz.animate writes them (GIF through Pillow, MP4
 through imageio-ffmpeg).
 
 Frames are rendered by blitting into one reused figure on a private Agg canvas (matplotlib's
@@ -15,7 +15,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from . import plots
+from .. import viz as plots  # the package's helpers (split into modules next)
 
 #: Default frames per second of each format (a GIF stores delays in 1/100 s).
 FPS = {".gif": 20.0, ".mp4": 30.0}
@@ -189,7 +189,7 @@ def _layout(n: int, joints: bool):
 
 def write(results: list, path, *, labels: Optional[Sequence[str]], speed: float, fps: Optional[float], dpi: float,
           trail: Optional[float], hold: float) -> int:
-    """ibvs.plots.animate (documented there)."""
+    """ibvs.viz.animate (documented there)."""
     p = check_path(path)
     ext = p.suffix.lower()
     speed = _positive(speed, "speed", 1e6)
