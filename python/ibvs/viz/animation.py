@@ -15,7 +15,23 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .. import viz as plots  # the package's helpers (split into modules next)
+from .drawing import (
+    as_results,
+    equal_3d,
+    frustum,
+    frustum_corners,
+    frustum_depth,
+    has_joints,
+    image_border,
+    is_pixel_camera,
+    measured_points,
+    new_figure,
+    point_colours,
+    run_labels,
+    sensor_border,
+    target_points,
+    valid_frames,
+)
 
 #: Default frames per second of each format (a GIF stores delays in 1/100 s).
 FPS = {".gif": 20.0, ".mp4": 30.0}
@@ -38,7 +54,7 @@ def check_path(path) -> Path:
 
 def frame_count(results, speed: float = 1.0, fps: float = FPS[".gif"]) -> int:
     """Frames an animation of these results has: ceil(duration * fps / speed) + 1."""
-    duration = max(_Track(r).duration for r in plots._as_results(results))
+    duration = max(_Track(r).duration for r in as_results(results))
     return int(math.ceil(duration * fps / speed - 1e-9)) + 1
 
 
@@ -55,7 +71,7 @@ class _Track:
 
     def __init__(self, result):
         h = result.history
-        ok = plots._valid(h)
+        ok = valid_frames(h)
         if not ok.any():
             ok = np.zeros(len(h.time), dtype=bool)
             ok[:1] = True
@@ -63,7 +79,7 @@ class _Track:
         self.time = h.time[ok] - h.time[0]
         self.uv = h.uv[ok]
         self.pose = h.pose[ok]
-        self.q = h.q[ok] if plots._has_joints(result) else None
+        self.q = h.q[ok] if has_joints(result) else None
         self.norm = h.error_norm[ok]
         self.duration = float(self.time[-1]) if len(self.time) else 0.0
 
@@ -77,16 +93,16 @@ class _View:
     def __init__(self, ax, track: _Track, trail: Optional[float]):
         r = track.result
         camera = getattr(r, "camera", None)
-        self.pixels = plots._is_pixel_camera(camera)
+        self.pixels = is_pixel_camera(camera)
         uv, des = track.uv, np.asarray(r.uv_desired)
         if self.pixels:
-            uv, des = plots._measured(r, uv), plots._measured(r, des)
-            border = plots._sensor_border(camera)
+            uv, des = measured_points(r, uv), measured_points(r, des)
+            border = sensor_border(camera)
         else:
-            border = plots._image_border(camera) if camera is not None else None
+            border = image_border(camera) if camera is not None else None
         self.uv, self.track, self.trail = uv, track, trail
         n = uv.shape[1]
-        colours = plots._point_colours(n)
+        colours = point_colours(n)
         ax.scatter(des[:, 0], des[:, 1], s=60, marker="+", c=colours, linewidths=1.5)
         if border is not None:
             ax.plot(border[:, 0], border[:, 1], "k-", lw=1.0)
@@ -123,21 +139,21 @@ class _Scene:
     def __init__(self, ax, track: _Track):
         r = track.result
         self.track = track
-        self.corners = plots._corners(getattr(r, "camera", None))
-        P = plots._target_points(r)
+        self.corners = frustum_corners(getattr(r, "camera", None))
+        P = target_points(r)
         path = track.pose[:, :3, 3]
         extent = np.ptp(np.vstack([path, P] if P is not None else [path]), axis=0).max()
-        self.depth = max(plots._frustum_depth(r), 0.06 * extent)  # visible however far the camera goes
-        goal = plots._frustum(np.asarray(r.goal), self.corners, self.depth)
+        self.depth = max(frustum_depth(r), 0.06 * extent)  # visible however far the camera goes
+        goal = frustum(np.asarray(r.goal), self.corners, self.depth)
         ax.plot(*goal.T, "--", color="tab:green", lw=0.8)
-        pts = [path, goal, plots._frustum(track.pose[0], self.corners, self.depth)]
+        pts = [path, goal, frustum(track.pose[0], self.corners, self.depth)]
         if P is not None:
             if len(P) >= 3 and getattr(r.target, "planar", False):
                 Q = np.vstack([P, P[:1]])
                 ax.plot(Q[:, 0], Q[:, 1], Q[:, 2], "-", color="0.5", lw=0.8)
-            ax.scatter(P[:, 0], P[:, 1], P[:, 2], c=plots._point_colours(len(P)), s=12, depthshade=False)
+            ax.scatter(P[:, 0], P[:, 1], P[:, 2], c=point_colours(len(P)), s=12, depthshade=False)
             pts.append(P)
-        plots._equal_3d(ax, np.vstack(pts))
+        equal_3d(ax, np.vstack(pts))
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
             axis.set_ticklabels([])
         ax.tick_params(length=0)
@@ -150,7 +166,7 @@ class _Scene:
     def update(self, k: int, now: float) -> list:
         p = self.track.pose[: k + 1, :3, 3]
         self.path.set_data_3d(p[:, 0], p[:, 1], p[:, 2])
-        f = plots._frustum(self.track.pose[k], self.corners, self.depth)
+        f = frustum(self.track.pose[k], self.corners, self.depth)
         self.frustum.set_data_3d(f[:, 0], f[:, 1], f[:, 2])
         return [self.path, self.frustum]
 
@@ -187,9 +203,26 @@ def _layout(n: int, joints: bool):
     return len(kinds), n, lambda j, kind: kinds.index(kind) * n + j + 1
 
 
+def animate(results, path, *, labels: Optional[Sequence[str]] = None, speed: float = 1.0,
+            fps: Optional[float] = None, dpi: float = 72, trail: Optional[float] = None, hold: float = 1.0):
+    """Write an animation of one or several episodes to `path` (.gif, or .mp4 with
+    imageio-ffmpeg: pip install ".[video]"); returns the number of frames written.
+
+    For each result: the camera's view (current points, their desired positions, the image
+    border and trails) and the 3D scene (camera frustum moving along its path, target, goal)
+    and, with a robot, its joints as bars within their limits. One result: the panels side by
+    side; several (e.g. schemes from the same start): one column per result.
+
+    speed: simulated seconds per second of video (1 = real time). fps: frames per second of
+    the file (default 20 for GIF, 30 for MP4). trail: seconds of feature trail (default: the
+    whole path). hold: seconds the last frame stays. The file has
+    ceil(duration * fps / speed) + 1 frames (duration: the longest episode's)."""
+    return write(as_results(results), path, labels=labels, speed=speed, fps=fps, dpi=dpi, trail=trail, hold=hold)
+
+
 def write(results: list, path, *, labels: Optional[Sequence[str]], speed: float, fps: Optional[float], dpi: float,
           trail: Optional[float], hold: float) -> int:
-    """ibvs.viz.animate (documented there)."""
+    """animate() of a list of results (their checks done here)."""
     p = check_path(path)
     ext = p.suffix.lower()
     speed = _positive(speed, "speed", 1e6)
@@ -199,8 +232,8 @@ def write(results: list, path, *, labels: Optional[Sequence[str]], speed: float,
         trail = _positive(trail, "trail", 1e9)
     if isinstance(hold, bool) or not isinstance(hold, (int, float)) or not (math.isfinite(hold) and 0 <= hold <= 60):
         raise ValueError(f"hold must be in [0, 60] seconds, got {hold!r}")
-    labels = plots._labels(results, labels)
-    fig = plots._figure(None, (1, 1))
+    labels = run_labels(results, labels)
+    fig = new_figure(None, (1, 1))
     fig.set_layout_engine(None)
     tracks = [_Track(r) for r in results]
     joints = any(t.q is not None for t in tracks)
