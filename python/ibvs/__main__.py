@@ -32,8 +32,8 @@ SEED_MAX = 2**63 - 1
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .reproduce import CASES, DEFAULT_CASE
-    from .schemes import SCHEMES, TITLES
+    from .study.reproduce import CASES, DEFAULT_CASE
+    from .study.schemes import SCHEMES, TITLES
 
     p = a.Parser(prog="ibvs", description="Image-based visual servoing: Cartesian, polar and hybrid.")
     p.add_argument("--version", action="version", version=f"ibvs {ibvs.__version__}")
@@ -98,7 +98,7 @@ def _add_angle_wrap(parser, default) -> None:
 
 
 def _range(text: str) -> tuple[str, tuple[float, float]]:
-    from .scenario import PARAMETERS
+    from .study.scenario import PARAMETERS
 
     name, sep, rest = text.partition("=")
     lo, sep2, hi = rest.partition(":")
@@ -119,7 +119,7 @@ def _range(text: str) -> tuple[str, tuple[float, float]]:
 
 
 def _grid_axis(text: str) -> tuple[str, list[float]]:
-    from .scenario import PARAMETERS
+    from .study.scenario import PARAMETERS
 
     name, sep, rest = text.partition("=")
     if not sep or name not in PARAMETERS:
@@ -134,8 +134,8 @@ def _grid_axis(text: str) -> tuple[str, list[float]]:
 
 
 def _add_sweep_parser(sub) -> None:
-    from .scenario import DEPTH_MODES, MAX_DURATION, MAX_GAIN, PARAMETERS
-    from .sweep import MAX_EPISODES, MAX_JOBS, SCHEMES
+    from .study.scenario import DEPTH_MODES, MAX_DURATION, MAX_GAIN, PARAMETERS
+    from .study.sweep import MAX_EPISODES, MAX_JOBS, SCHEMES
 
     w = sub.add_parser("sweep", help="many episodes over random or grid start poses, per scheme; aggregate table",
                        description="Run a sweep of episodes (every scheme from the same starts) of a built-in world "
@@ -188,7 +188,7 @@ def _on_sigterm(signum, frame):
 
 
 def _sweep(args, parser) -> int:
-    from . import sweep as sw
+    from .study import sweep as sw
 
     prog = "ibvs sweep"
     if args.range and args.grid:
@@ -234,7 +234,8 @@ def _sweep(args, parser) -> int:
 
 
 def _run(args, parser) -> int:
-    from . import reproduce, sim
+    from . import sim
+    from .study import reproduce
 
     prog = "ibvs run"
     case = args.case or reproduce.DEFAULT_CASE[args.world]
@@ -272,7 +273,7 @@ def _run(args, parser) -> int:
                                          tolerance=args.tolerance, case_object=c, angle_wrap=args.angle_wrap,
                                          vision=sensor)
     row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
-    from .schemes import TITLES
+    from .study.schemes import TITLES
 
     wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
     title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}{wrap}"
@@ -314,7 +315,7 @@ def main(argv: list[str] | None = None) -> int:
         print(ibvs.cmake_dir())
         return 0
     if args.command == "reproduce":
-        from .reproduce import reproduce
+        from .study.reproduce import reproduce
 
         reproduce(args.out, quick=args.quick, angle_wrap=args.angle_wrap)
         return 0

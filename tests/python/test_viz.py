@@ -13,7 +13,7 @@ import pytest
 
 import ibvs
 from ibvs import sim, viz
-from ibvs.schemes import SCHEMES, make
+from ibvs.study.schemes import SCHEMES, make
 
 Figure = pytest.importorskip("matplotlib.figure").Figure
 
@@ -145,7 +145,7 @@ def test_image_limits_and_sweep_summary():
     assert isinstance(fig, Figure)
     inside = {k: v for k, (_, v) in viz.image_limits_paths().items()}
     assert inside == {"A→B": True, "C→D": False}
-    import ibvs.sweep as sw
+    import ibvs.study.sweep as sw
 
     rows = sw.sweep(None, jobs=1, schemes=["polar"], grid={"rz_deg": [10, 100]}, duration=3.0, progress=False)
     fig = viz.sweep_summary(sw.aggregate(rows))
@@ -202,9 +202,9 @@ def test_backend_is_never_changed(tmp_path):
         import sys
         import matplotlib
         matplotlib.use("svg")
-        import ibvs.viz as viz, ibvs.sweep as sw
+        import ibvs.viz as viz, ibvs.study.sweep as sw
         from ibvs import sim
-        from ibvs.schemes import make
+        from ibvs.study.schemes import make
         assert matplotlib.get_backend() == "svg"
         c = sim.cases.z_rotation()
         r = sim.run(make("polar", 1.0), c.camera, c.target, c.start, c.goal, duration=0.5)

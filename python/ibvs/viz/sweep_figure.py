@@ -9,7 +9,7 @@ from .drawing import new_figure
 
 
 def sweep_summary(table: Sequence[dict], by: str = "rz_deg", *, fig=None):
-    """Figure of ibvs.sweep.aggregate(): per scheme (one colour each) against the bins of
+    """Figure of ibvs.study.sweep.aggregate(): per scheme (one colour each) against the bins of
     `by`, the fraction of every outcome (one panel each, converged first) and the medians of
     the camera retreat, the camera path length and the peak linear and angular speed."""
     if not table:

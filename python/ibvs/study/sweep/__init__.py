@@ -1,8 +1,8 @@
-"""ibvs.sweep: convergence-basin studies at scale, one row per simulated episode.
+"""ibvs.study.sweep: convergence-basin studies at scale, one row per simulated episode.
 
-    import ibvs.sweep as sw
+    import ibvs.study.sweep as sw
     rows = sw.sweep("sweep.csv", episodes=1000, seed=0)         # the paper's free-flying set-up
-    rows = sw.sweep("mine.csv", scenario="mine.toml")           # or your own (ibvs.scenario)
+    rows = sw.sweep("mine.csv", scenario="mine.toml")           # or your own (ibvs.study.scenario)
     table = sw.aggregate(rows)                                   # per scheme and rotation bin
     print(sw.format_table(table))
     sw.figure(table, "sweep.png")                                # needs matplotlib (.[plot])
@@ -10,7 +10,7 @@
 or on the command line `ibvs sweep --out sweep.csv --episodes 1000 --seed 0` (add
 `--scenario mine.toml` for your own set-up; docs/sweeps.md).
 
-A sweep runs a scenario (ibvs.scenario.Scenario: camera, target, goal, robot, start
+A sweep runs a scenario (ibvs.study.scenario.Scenario: camera, target, goal, robot, start
 distribution and control settings; the built-in "free" and "gantry" ones or yours). Each
 episode index i draws its start offset from the goal, noise, latency and depth error from
 its own generator numpy.random.default_rng([seed, i]) -- or takes them from a grid -- and
@@ -25,7 +25,7 @@ tasks to Dask's distributed scheduler (pip install ".[distributed]"). Rows are
 deterministic, so the tables of both paths are identical. An interruption (KeyboardInterrupt)
 stops the workers at once; every row finished before it is in the file.
 
-Schemes: SCHEMES (ibvs.schemes) maps a name to a factory(gain, n_points) -> servo (an
+Schemes: SCHEMES (ibvs.study.schemes) maps a name to a factory(gain, n_points) -> servo (an
 ibvs.Servo or an ibvs.PartitionedServo: whatever ibvs.sim.run accepts). Add more with
 register_scheme(); for process pools the factory must be picklable (a module-level function
 or functools.partial of one). The scenario's angle_wrap ("consistent", the default, or
@@ -50,10 +50,10 @@ import numpy as np
 
 import ibvs
 
-from . import schemes as _schemes
-from . import sim
-from .scenario import DEFAULT_RANGES, DEFAULTS, DEPTH_MODES, LIMITS, PARAMETERS, Scenario, builtin
-from .scenario import load as load_scenario
+from ... import sim
+from .. import schemes as _schemes
+from ..scenario import DEFAULT_RANGES, DEFAULTS, DEPTH_MODES, LIMITS, PARAMETERS, Scenario, builtin
+from ..scenario import load as load_scenario
 
 __all__ = [
     "COLUMNS",
@@ -75,7 +75,7 @@ __all__ = [
     "sweep",
 ]
 
-#: Scheme name -> factory(gain, n_points) -> servo (the registry of ibvs.schemes).
+#: Scheme name -> factory(gain, n_points) -> servo (the registry of ibvs.study.schemes).
 SCHEMES = _schemes.SCHEMES
 
 
@@ -133,7 +133,7 @@ class SweepSpec:
 
     def validate(self) -> "SweepSpec":
         if not isinstance(self.scenario, (Scenario, str)):
-            raise TypeError(f"scenario must be an ibvs.scenario.Scenario, a built-in name or a file, got "
+            raise TypeError(f"scenario must be an ibvs.study.scenario.Scenario, a built-in name or a file, got "
                             f"{type(self.scenario).__name__}")
         self.setup.validate()
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or not 0 <= self.seed < 2**63:
@@ -402,7 +402,7 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
     elif isinstance(scenario, str):
         scenario = builtin(scenario)
     elif not isinstance(scenario, Scenario):
-        raise TypeError(f"scenario must be an ibvs.scenario.Scenario, a built-in name or a .toml file, got "
+        raise TypeError(f"scenario must be an ibvs.study.scenario.Scenario, a built-in name or a .toml file, got "
                         f"{type(scenario).__name__}")
     if ranges is not None and not isinstance(ranges, Mapping):
         raise TypeError(f"ranges must be a mapping {{parameter: (lo, hi)}}, got {type(ranges).__name__}")
@@ -435,7 +435,7 @@ def sweep(
     """Run a sweep; returns its rows (dicts over COLUMNS) sorted by (index, scheme).
 
     out: CSV file (rows appended as they finish; rows already in it are skipped) or None.
-    scenario: a Scenario (ibvs.scenario), a built-in name ("free" or "gantry"), or a TOML
+    scenario: a Scenario (ibvs.study.scenario), a built-in name ("free" or "gantry"), or a TOML
         scenario file, whose [sweep] table gives defaults for episodes, seed and schemes.
         world: the built-in name (the same as scenario=name).
     episodes: number of random start set-ups (default 100; ignored with grid); seed: their seed.
@@ -761,6 +761,6 @@ def format_table(table: list[dict], by: str = "rz_deg") -> str:
 def figure(table: list[dict], path: Union[str, os.PathLike], by: str = "rz_deg", dpi: int = 90) -> None:
     """Save ibvs.viz.sweep_summary(table, by): every outcome's rate and the median retreat,
     path and peak twist against the bins of `by`, one curve per scheme."""
-    from . import viz
+    from ... import viz
 
     viz.sweep_summary(table, by).savefig(os.fspath(path), dpi=dpi)

@@ -1,10 +1,10 @@
-"""The control laws by name: what `ibvs run`, `ibvs sweep`, ibvs.sweep and ibvs.reproduce mean
+"""The control laws by name: what `ibvs run`, `ibvs sweep`, ibvs.study.sweep and ibvs.study.reproduce mean
 by a scheme.
 
 SCHEMES maps a name to a factory(gain, n_points) returning a servo for n_points image
 points: an ibvs.Servo or an ibvs.PartitionedServo, anything ibvs.sim.run accepts. The
 factories are module-level functions so that process pools and Dask can pickle them;
-ibvs.sweep.register_scheme adds more.
+ibvs.study.sweep.register_scheme adds more.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""ibvs.scenario: the set-up a sweep runs, from Python or from a TOML scenario file.
+"""ibvs.study.scenario: the set-up a sweep runs, from Python or from a TOML scenario file.
 
 A Scenario is a camera, a target (any points, planar or not), the goal, a robot (None for a
 free-flying camera, the gantry, or any robot ibvs.sim.run accepts), a distribution of start
@@ -6,7 +6,7 @@ set-ups around the goal and the control settings:
 
     import numpy as np
     from ibvs import sim
-    from ibvs.scenario import Scenario
+    from ibvs.study.scenario import Scenario
 
     mine = Scenario(camera=sim.Camera(800, 800, 320, 240, width=640, height=480, fps=30),
                     target=sim.Target([[-.05, -.05, 0], [.05, -.05, 0], [.05, .05, 0], [-.05, .05, .02]],
@@ -14,7 +14,7 @@ set-ups around the goal and the control settings:
                     goal=np.eye(4), ranges={"rz_deg": (0, 180), "tz": (-0.1, 0.1), "noise": (0, 0.5)},
                     depth="estimated", name="mine")
 
-    ibvs.sweep.sweep("mine.csv", scenario=mine, episodes=200)
+    ibvs.study.sweep.sweep("mine.csv", scenario=mine, episodes=200)
 
 or `ibvs sweep --scenario mine.toml --out mine.csv` with the same in a file (see
 docs/sweeps.md and load()).
@@ -46,8 +46,8 @@ from typing import Any, Callable, Mapping, Optional
 
 import numpy as np
 
-from . import sim
-from .sim.poses import rotation_matrix
+from .. import sim
+from ..sim.poses import rotation_matrix
 
 __all__ = ["ANGLE_WRAPS", "DEPTH_MODES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
 

@@ -21,10 +21,12 @@ from pathlib import Path
 import numpy as np
 
 import ibvs
-from ibvs import schemes, sim
-from ibvs.scenario import ANGLE_WRAPS  # the angle wraps of ibvs.Servo
 
-#: The paper's four schemes (factories in ibvs.schemes) and their titles in the figures.
+from .. import sim
+from . import schemes
+from .scenario import ANGLE_WRAPS  # the angle wraps of ibvs.Servo
+
+#: The paper's four schemes (factories in ibvs.study.schemes) and their titles in the figures.
 SCHEMES = schemes.PAPER
 SCHEME_TITLES = {
     "cartesian": "IBVS (Cartesian, 8x6)",
@@ -118,7 +120,7 @@ def make_case(world: str, case: str):
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
             latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
             tolerance: float = TOLERANCE, case_object=None, angle_wrap: str = "consistent", vision=None):
-    """Simulate one (world, case, scheme) (scheme: any name in ibvs.schemes.SCHEMES); returns
+    """Simulate one (world, case, scheme) (scheme: any name in ibvs.study.schemes.SCHEMES); returns
     (case object, sim.Result). case_object replaces the named case (e.g. another angle);
     angle_wrap is set on the scheme's ibvs.Servo. vision: None, or an ibvs.sim.Sensor for an
     image episode (its renderer's camera replaces the case's: ibvs.vision.image_camera gives a
@@ -209,7 +211,7 @@ def wrap_sentence(angle_wrap: str) -> str:
 
 def reproduce(out: Path, quick: bool = False, stream=sys.stdout,
               angle_wrap: str = "consistent") -> tuple[list[Row], list[tuple[str, bool]]]:
-    from . import viz
+    from .. import viz
 
     if angle_wrap not in ANGLE_WRAPS:
         raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
