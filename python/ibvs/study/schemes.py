@@ -4,7 +4,7 @@ by a scheme.
 SCHEMES maps a name to a factory(gain, n_points) returning a servo for n_points image
 points: an ibvs.Servo or an ibvs.PartitionedServo, anything ibvs.sim.run accepts. The
 factories are module-level functions so that process pools and Dask can pickle them;
-ibvs.study.sweep.register_scheme adds more.
+register_scheme adds more.
 """
 
 from __future__ import annotations
@@ -101,3 +101,16 @@ def make(scheme, gain: float, n_points: int = 4):
         raise ValueError(f"scheme: its factory makes a servo for {servo.layout.n_points} points, the target has "
                          f"{n_points}; write it as factory(gain, n_points)")
     return servo
+
+
+def register_scheme(name: str, factory: Callable[..., Any], *, replace: bool = False) -> None:
+    """Add a scheme: factory(gain, n_points) returns a servo for n_points points (anything
+    ibvs.sim.run accepts as servo; factory(gain) is accepted for four-point targets). Raises
+    ValueError if the name exists (unless replace)."""
+    if not isinstance(name, str) or not name or any(c in name for c in ",: \t\n"):
+        raise ValueError(f"name must be a non-empty string without ',', ':' or spaces, got {name!r}")
+    if not callable(factory):
+        raise TypeError(f"factory must be callable (gain, n_points -> servo), got {type(factory).__name__}")
+    if name in SCHEMES and not replace:
+        raise ValueError(f"name: scheme {name!r} is already registered (pass replace=True)")
+    SCHEMES[name] = factory
