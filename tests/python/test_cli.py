@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import ibvs
-from ibvs.__main__ import main
+from ibvs.cli.main import main
 
 pytest.importorskip("matplotlib")
 

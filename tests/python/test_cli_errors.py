@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import ibvs.study.sweep as sw
-from ibvs.__main__ import main
+from ibvs.cli.main import main
 from ibvs.study.schemes import SCHEMES
 
 pytest.importorskip("matplotlib")

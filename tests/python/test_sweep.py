@@ -8,7 +8,7 @@ import pytest
 import ibvs
 import ibvs.study.sweep as sw
 from ibvs import sim
-from ibvs.__main__ import main
+from ibvs.cli.main import main
 
 # Small and fast: short episodes, few starts.
 SMALL = dict(episodes=6, seed=7, duration=6.0, progress=False)
