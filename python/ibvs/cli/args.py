@@ -1,5 +1,6 @@
 """Command-line argument checks: every bad argument is refused by the parser, before any work,
-with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`)."""
+with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`);
+and the options that several commands share (their help texts, --angle-wrap)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The control laws by name: what `ibvs run`, `ibvs sweep`, ibvs.study.sweep and ibvs.study.reproduce mean
-by a scheme.
+"""The control laws by name: what `ibvs run`, `ibvs sweep`, ibvs.study.sweep and
+ibvs.study.reproduce mean by a scheme.
 
 SCHEMES maps a name to a factory(gain, n_points) returning a servo for n_points image
 points: an ibvs.Servo or an ibvs.PartitionedServo, anything ibvs.sim.run accepts. The
