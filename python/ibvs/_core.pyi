@@ -1,13 +1,14 @@
 """Type stubs of the native module ibvs._core (the control-law core and the simulator's native part).
 
-tests/python/test_stub.py checks that these names, members and parameter names are those of the module.
+tests/python/test_stub.py checks that they are the module's: mypy.stubtest (what it cannot express is in
+tests/python/stubtest_allowlist.txt) and the parameter names of every function, which stubtest cannot read
+from pybind11's functions.
 """
 
 from __future__ import annotations
 
-import enum
 import os
-from typing import Any, Sequence, Tuple, Union
+from typing import Any, ClassVar, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -19,15 +20,46 @@ _ArrayLike = npt.ArrayLike
 _FloatArray = npt.NDArray[np.float64]
 _Depth = Union[float, npt.ArrayLike]
 
-class Representation(enum.Enum):
-    cartesian = 0
-    polar = 1
-    cylindrical = 2
+# Representation and Status are pybind11 enums, not enum.Enum: members are class attributes compared
+# with ==, int(x) and x.value give the number, x.name the name, and the class is not iterable
+# (Status.__members__ maps the names to the members).
 
-class Status(enum.Enum):
-    ok = 0
-    singular = 1
-    invalid_input = -1
+class Representation:
+    """How a block of a Layout measures one point: cartesian (u, v) = 0, polar (r, theta) = 1,
+    cylindrical (r, r theta) = 2."""
+
+    cartesian: ClassVar[Representation]
+    polar: ClassVar[Representation]
+    cylindrical: ClassVar[Representation]
+    __members__: ClassVar[dict[str, Representation]]
+    def __init__(self, value: int) -> None: ...
+    def __int__(self) -> int: ...
+    def __index__(self) -> int: ...
+    def __eq__(self, other: object) -> bool: ...
+    def __ne__(self, other: object) -> bool: ...
+    def __hash__(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def value(self) -> int: ...
+
+class Status:
+    """What an update() returns: ok = 0, singular = 1 (rank-deficient Jacobian), invalid_input = -1."""
+
+    ok: ClassVar[Status]
+    singular: ClassVar[Status]
+    invalid_input: ClassVar[Status]
+    __members__: ClassVar[dict[str, Status]]
+    def __init__(self, value: int) -> None: ...
+    def __int__(self) -> int: ...
+    def __index__(self) -> int: ...
+    def __eq__(self, other: object) -> bool: ...
+    def __ne__(self, other: object) -> bool: ...
+    def __hash__(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def value(self) -> int: ...
 
 class Layout:
     def __init__(

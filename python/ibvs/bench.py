@@ -365,7 +365,7 @@ def format_vision(res: dict[str, Any]) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ._args import Parser, number
+    from .cli.args import Parser, number
 
     p = Parser(prog="python -m ibvs.bench", description=__doc__.split("\n\n")[0])
     p.add_argument("--iterations", type=number(1, 10**8, integer=True), default=20000,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import ibvs
-from ibvs.__main__ import main
+from ibvs.cli.main import main
 
 pytest.importorskip("matplotlib")
 
@@ -77,10 +77,10 @@ def test_run_angle_wrap(capsys):
 
 
 def test_fig4_paths():
-    from ibvs import plots
+    from ibvs import viz
 
     half = 0.3
-    r = plots.square_perimeter_r(np.array([0.0, np.pi / 4, np.pi / 2]), half)
+    r = viz.square_perimeter_r(np.array([0.0, np.pi / 4, np.pi / 2]), half)
     np.testing.assert_allclose(r, [half, half * np.sqrt(2), half])
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-import ibvs.sweep as sw
-from ibvs.__main__ import main
-from ibvs.schemes import SCHEMES
+import ibvs.study.sweep as sw
+from ibvs.cli.main import main
+from ibvs.study.schemes import SCHEMES
 
 pytest.importorskip("matplotlib")
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "scenario.toml"

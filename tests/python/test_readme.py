@@ -32,7 +32,7 @@ def test_every_python_block_runs(capsys, tmp_path, monkeypatch):
 
 
 def test_scenario_file_example_runs(tmp_path):
-    import ibvs.sweep as sw
+    import ibvs.study.sweep as sw
 
     (toml,) = blocks("toml")
     (tmp_path / "my.toml").write_text(toml)

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import ibvs.sweep as sw
+import ibvs.study.sweep as sw
 from ibvs import sim
-from ibvs.scenario import PARAMETERS, Scenario, builtin, load
+from ibvs.study.scenario import PARAMETERS, Scenario, builtin, load
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "scenario.toml"
 FAST = dict(episodes=4, duration=4.0, progress=False)

@@ -9,8 +9,8 @@ import pytest
 
 import ibvs
 import ibvs.sim as sim
-from ibvs import schemes
-from ibvs.reproduce import CASES, DEPTH, DURATION, GAIN, SCHEMES
+from ibvs.study import schemes
+from ibvs.study.reproduce import CASES, DEPTH, DURATION, GAIN, SCHEMES
 
 FACES = ("target_backside", "collision")
 

@@ -1,4 +1,4 @@
-"""ibvs.sweep: reproducible rows, resume, aggregate tables, figure, Dask path, CLI."""
+"""ibvs.study.sweep: reproducible rows, resume, aggregate tables, figure, Dask path, CLI."""
 
 import csv
 import pickle
@@ -6,9 +6,9 @@ import pickle
 import pytest
 
 import ibvs
-import ibvs.sweep as sw
+import ibvs.study.sweep as sw
 from ibvs import sim
-from ibvs.__main__ import main
+from ibvs.cli.main import main
 
 # Small and fast: short episodes, few starts.
 SMALL = dict(episodes=6, seed=7, duration=6.0, progress=False)
@@ -207,7 +207,7 @@ def test_angle_wrap_in_a_scenario_file(tmp_path):
     """angle_wrap is a [control] key of scenario files; a bad value is refused naming it."""
     from pathlib import Path
 
-    from ibvs import scenario
+    from ibvs.study import scenario
 
     text = (Path(__file__).parents[2] / "docs" / "scenario.toml").read_text()
     for value, ok in (("per_point", True), ("both", False)):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-import ibvs.sweep as sw
+import ibvs.study.sweep as sw
 
 pytest.importorskip("distributed")
 ROOT = Path(__file__).resolve().parents[2]

@@ -388,7 +388,7 @@ def test_renderer_options_finite_or_refused(x):
 
 
 def test_cli_run_vision_video(tmp_path, capsys):
-    from ibvs.__main__ import main
+    from ibvs.cli.main import main
 
     out = tmp_path / "run.mp4"
     rc = main(

@@ -17,7 +17,10 @@ def _check_radians(r, stacklevel: int) -> None:
                       f"ibvs.sim.pose_deg or degrees=True", UserWarning, stacklevel=stacklevel + 1)
 
 
-def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
+def rotation_matrix(rx: float, ry: float, rz: float) -> np.ndarray:
+    """Rx(rx) @ Ry(ry) @ Rz(rz) of angles in radians, unchecked: what rotation() computes once it
+    has checked its arguments (for callers whose angles are already checked: the sweeps' scenarios)."""
+
     def c_s(a: float) -> tuple[float, float]:
         q = a / (np.pi / 2)
         if abs(q - round(q)) < 1e-12:  # exact quarter turns
@@ -55,7 +58,7 @@ def rotation(rx: float = 0.0, ry: float = 0.0, rz: float = 0.0, *, degrees: bool
     a = _angles((rx, ry, rz), degrees)
     if not degrees:
         _check_radians(a, stacklevel=2)
-    return _rotation(*a)
+    return rotation_matrix(*a)
 
 
 def pose(t=(0.0, 0.0, 0.0), r=(0.0, 0.0, 0.0), *, degrees: bool = False) -> np.ndarray:
@@ -66,7 +69,7 @@ def pose(t=(0.0, 0.0, 0.0), r=(0.0, 0.0, 0.0), *, degrees: bool = False) -> np.n
     if not degrees:
         _check_radians(a, stacklevel=2)
     T = np.eye(4)
-    T[:3, :3] = _rotation(*a)
+    T[:3, :3] = rotation_matrix(*a)
     try:
         tt = np.asarray(t, dtype=float)
     except (TypeError, ValueError):

@@ -1,5 +1,6 @@
 """Command-line argument checks: every bad argument is refused by the parser, before any work,
-with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`)."""
+with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`);
+and the options that several commands share (their help texts, --angle-wrap)."""
 
 from __future__ import annotations
 
@@ -100,7 +101,7 @@ def animation_file(text: str) -> Path:
     except ImportError:
         raise argparse.ArgumentTypeError('animations need matplotlib: pip install ".[plot]" from the ibvs '
                                          'repository root') from None
-    from .animation import check_path
+    from ..viz.animation import check_path
 
     try:
         check_path(p)
@@ -118,3 +119,23 @@ def fail(prog: str, message) -> NoReturn:
     """A bad argument found after parsing: one line, then exit status 2 (as argparse's own errors)."""
     say(prog, message)
     raise SystemExit(2)
+
+
+# --------------------------------------------------------------------------- options of several commands
+
+NOISE_HELP = ("std of the Gaussian noise added to the measured image points, in the camera's measurement units: "
+              "pixels for a pixel camera (gantry), normalised image units (1 = the focal length) for the free "
+              "world's normalised camera (default 0)")
+DEPTH_HELP = ("depth the controller is given: exact (true depths), pose (from a planar pose estimate), desired "
+              "(the constant goal depths) or estimated (online, per point, from the camera's motion)")
+TOLERANCE_HELP = "converged when the servo's feature-error norm is below this (normalised units; default 1e-5)"
+#: Largest seed (the simulator's noise generator takes a non-negative int64).
+SEED_MAX = 2**63 - 1
+
+
+def add_angle_wrap(parser, default) -> None:
+    """The --angle-wrap option (default None: the scenario's)."""
+    parser.add_argument("--angle-wrap", choices=["consistent", "per_point"], default=default,
+                        help="theta errors wrapped as one rotation about their circular mean or each into "
+                             "(-pi, pi] on its own, eq. (13) (default "
+                             + (default or "the scenario's, else consistent") + ")")

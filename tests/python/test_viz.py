@@ -1,4 +1,4 @@
-"""ibvs.plots: every figure for every world and servo kind, headless, without touching the
+"""ibvs.viz: every figure for every world and servo kind, headless, without touching the
 backend; labels, colours and legends; the animation's frames."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import ibvs
-from ibvs import plots, sim
-from ibvs.schemes import SCHEMES, make
+from ibvs import sim, viz
+from ibvs.study.schemes import SCHEMES, make
 
 Figure = pytest.importorskip("matplotlib.figure").Figure
 
@@ -127,55 +127,55 @@ def test_legends_do_not_cover_the_data(results):
 
 def test_compare_overlays_runs(results):
     runs = [results["free-polar"], results["free-cartesian"], results["free-partitioned"]]
-    fig = plots.compare(runs, ["polar", "cartesian", "partitioned"], title="same start")
+    fig = viz.compare(runs, ["polar", "cartesian", "partitioned"], title="same start")
     assert isinstance(fig, Figure)
     texts = [t.get_text() for t in fig.legends[0].get_texts()]
     assert [t.split(":")[0] for t in texts] == ["polar", "cartesian", "partitioned"]
     norm = next(ax for ax in fig.axes if ax.get_title() == "error norm")
     assert len(norm.get_lines()) == 3
     with pytest.raises(ValueError, match="labels"):
-        plots.compare(runs, ["a"])
+        viz.compare(runs, ["a"])
     with pytest.raises(TypeError, match="results"):
-        plots.compare([1, 2])
-    assert isinstance(plots.compare([results["gantry-stacked"], results["free-pixel-nonplanar"]]), Figure)
+        viz.compare([1, 2])
+    assert isinstance(viz.compare([results["gantry-stacked"], results["free-pixel-nonplanar"]]), Figure)
 
 
 def test_image_limits_and_sweep_summary():
-    fig = plots.image_limits()
+    fig = viz.image_limits()
     assert isinstance(fig, Figure)
-    inside = {k: v for k, (_, v) in plots.image_limits_paths().items()}
+    inside = {k: v for k, (_, v) in viz.image_limits_paths().items()}
     assert inside == {"A→B": True, "C→D": False}
-    import ibvs.sweep as sw
+    import ibvs.study.sweep as sw
 
     rows = sw.sweep(None, jobs=1, schemes=["polar"], grid={"rz_deg": [10, 100]}, duration=3.0, progress=False)
-    fig = plots.sweep_summary(sw.aggregate(rows))
+    fig = viz.sweep_summary(sw.aggregate(rows))
     titles = _titles(fig)
     for o in sim.OUTCOMES:
         assert f"{o} (%)" in titles
     assert "median peak ‖T‖ (m/s)" in titles
     with pytest.raises(ValueError, match="table"):
-        plots.sweep_summary([])
+        viz.sweep_summary([])
 
 
 def test_draws_into_a_given_figure(results):
     fig = Figure()
-    assert plots.episode(results["free-polar"], fig=fig) is fig
+    assert viz.episode(results["free-polar"], fig=fig) is fig
     with pytest.raises(TypeError, match="fig"):
-        plots.episode(results["free-polar"], fig="no")
+        viz.episode(results["free-polar"], fig="no")
 
 
 def test_gif_has_the_expected_frames(tmp_path, results):
     from PIL import Image
 
-    from ibvs.animation import frame_count
+    from ibvs.viz.animation import frame_count
 
     r = results["free-polar"]  # 3 s
-    n = plots.animate(r, tmp_path / "run.gif", speed=2.0, fps=10)
+    n = viz.animate(r, tmp_path / "run.gif", speed=2.0, fps=10)
     assert n == frame_count(r, 2.0, 10) == int(np.ceil(r.history.time[-1] * 10 / 2.0)) + 1
     with Image.open(tmp_path / "run.gif") as im:
         assert im.n_frames == n
     # two runs side by side, one of them on the gantry (joint bars)
-    n2 = plots.animate([results["gantry-stacked"], r], tmp_path / "two.gif", labels=["gantry", "free"], fps=5)
+    n2 = viz.animate([results["gantry-stacked"], r], tmp_path / "two.gif", labels=["gantry", "free"], fps=5)
     with Image.open(tmp_path / "two.gif") as im:
         assert im.n_frames == n2 == frame_count([results["gantry-stacked"], r], 1.0, 5)
 
@@ -189,31 +189,31 @@ def test_mp4_and_bad_arguments(tmp_path, results):
     for kw, match in [({"speed": 0}, "speed"), ({"speed": float("nan")}, "speed"), ({"fps": 1000}, "fps"),
                       ({"hold": -1}, "hold"), ({"labels": ["a", "b"]}, "labels")]:
         with pytest.raises(ValueError, match=match):
-            plots.animate(r, tmp_path / "x.gif", **kw)
+            viz.animate(r, tmp_path / "x.gif", **kw)
     with pytest.raises(ValueError, match="path"):
-        plots.animate(r, tmp_path / "x.avi")
+        viz.animate(r, tmp_path / "x.avi")
     assert not (tmp_path / "x.gif").exists()
 
 
 def test_backend_is_never_changed(tmp_path):
-    """In a fresh interpreter with the user's backend chosen: importing ibvs.plots and every
+    """In a fresh interpreter with the user's backend chosen: importing ibvs.viz and every
     plotting call leave it as it was, and never import pyplot; a pyplot figure can be drawn into."""
     script = textwrap.dedent(f"""
         import sys
         import matplotlib
         matplotlib.use("svg")
-        import ibvs.plots as plots, ibvs.sweep as sw
+        import ibvs.viz as viz, ibvs.study.sweep as sw
         from ibvs import sim
-        from ibvs.schemes import make
+        from ibvs.study.schemes import make
         assert matplotlib.get_backend() == "svg"
         c = sim.cases.z_rotation()
         r = sim.run(make("polar", 1.0), c.camera, c.target, c.start, c.goal, duration=0.5)
         g = sim.cases.gantry_general_motion()
         rg = sim.run(make("cartesian", 2.0), g.camera, g.target, g.start, g.goal, robot=g.robot, duration=0.5)
         rows = sw.sweep(None, jobs=1, schemes=["polar"], grid={{"rz_deg": [10]}}, duration=1.0, progress=False)
-        for call in (lambda: r.plot(), lambda: rg.plot(), lambda: plots.compare([r, rg]),
-                     lambda: plots.image_limits(), lambda: plots.sweep_summary(sw.aggregate(rows)),
-                     lambda: plots.animate([r, rg], r"{tmp_path / 'b.gif'}", fps=2),
+        for call in (lambda: r.plot(), lambda: rg.plot(), lambda: viz.compare([r, rg]),
+                     lambda: viz.image_limits(), lambda: viz.sweep_summary(sw.aggregate(rows)),
+                     lambda: viz.animate([r, rg], r"{tmp_path / 'b.gif'}", fps=2),
                      lambda: r.plot().savefig(r"{tmp_path / 'b.png'}")):
             call()
             assert matplotlib.get_backend() == "svg", call

@@ -1,0 +1,113 @@
+"""Reader of camera calibration files: what ibvs.CameraModel.from_yaml reads (read(path) -> K, dist, size).
+
+Two layouts, both read with OpenCV's cv2.FileStorage (extra ``ibvs[vision]``):
+
+* ROS ``camera_info`` YAML (camera_calibration / camera_info_manager)::
+
+      image_width: 640
+      image_height: 480
+      camera_matrix: {rows: 3, cols: 3, data: [fx, 0, cx, 0, fy, cy, 0, 0, 1]}
+      distortion_model: plumb_bob          # or equidistant (fisheye), rational_polynomial
+      distortion_coefficients: {rows: 1, cols: 5, data: [k1, k2, p1, p2, k3]}
+
+* OpenCV's own calibration output (cv::FileStorage YAML, XML or JSON, as written by OpenCV's
+  calibration sample): the same keys, the matrices as ``!!opencv-matrix``, and an optional
+  ``fisheye_model: 1`` instead of distortion_model.
+
+Why cv2.FileStorage and not PyYAML: OpenCV writes a ``%YAML:1.0`` directive and
+``!!opencv-matrix`` tags that a standard YAML parser rejects, while FileStorage reads both
+OpenCV's files and plain YAML such as ROS's (a header is added to a file that lacks one, as
+older OpenCV releases require it). The renderer and tracker of ibvs use OpenCV anyway, so one
+optional dependency covers both.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+_FISHEYE = ("equidistant", "fisheye")
+_PLUMB_BOB = ("plumb_bob", "radtan", "rational_polynomial", "none", "")
+
+
+def _cv2():
+    try:
+        import cv2
+    except ImportError as e:  # pragma: no cover - the test extra installs it
+        raise ImportError(
+            'CameraModel.from_yaml reads calibration files with OpenCV: pip install "ibvs[vision]"'
+        ) from e
+    return cv2
+
+
+def _matrix(node, key: str, path: str) -> np.ndarray:
+    """A {rows, cols, data} map (ROS) or an !!opencv-matrix (OpenCV) as a (rows, cols) array."""
+    if node.empty() or node.isNone():
+        raise ValueError(f"path: {path} has no '{key}'")
+    if not node.isMap():
+        raise ValueError(f"path: {path}: '{key}' must be a map with rows, cols and data")
+    data = node.getNode("data")
+    if not data.isSeq():
+        raise ValueError(f"path: {path}: '{key}' has no data list")
+    values = np.array([data.at(i).real() for i in range(data.size())], dtype=float)
+    rows, cols = node.getNode("rows"), node.getNode("cols")
+    if not (rows.isInt() or rows.isReal()) or not (cols.isInt() or cols.isReal()):
+        raise ValueError(f"path: {path}: '{key}' needs integer rows and cols")
+    r, c = int(rows.real()), int(cols.real())
+    if r * c != values.size:
+        raise ValueError(f"path: {path}: '{key}' has {values.size} values for {r}x{c}")
+    return values.reshape(r, c)
+
+
+def _number(fs, key: str, path: str) -> float:
+    node = fs.getNode(key)
+    if not (node.isInt() or node.isReal()):
+        raise ValueError(f"path: {path} needs a number '{key}'")
+    return float(node.real())
+
+
+def read(path) -> dict:
+    """K (3, 3), dist (n,), width, height and fisheye (bool) from a calibration file."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"path: no such calibration file: {path}")
+    cv2 = _cv2()
+    with open(path, "rb") as f:
+        text = f.read().decode("utf-8", errors="replace")
+    stripped = text.lstrip("\ufeff \t\r\n")
+    if not stripped.startswith(("%YAML", "<?xml", "{")):  # plain YAML (ROS): add FileStorage's header
+        text = "%YAML:1.0\n" + text
+    try:
+        fs = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
+    except Exception as e:  # cv2.error, or SystemError wrapping it
+        raise ValueError(f"path: {path} is not a YAML/XML/JSON file OpenCV can read: {e}") from None
+    if not fs.isOpened():
+        raise ValueError(f"path: {path} could not be read by cv2.FileStorage")
+    try:
+        K = _matrix(fs.getNode("camera_matrix"), "camera_matrix", path)
+        if K.shape != (3, 3):
+            raise ValueError(f"path: {path}: camera_matrix must be 3x3, got {K.shape[0]}x{K.shape[1]}")
+        dnode = fs.getNode("distortion_coefficients")
+        absent = dnode.empty() or dnode.isNone()
+        dist = np.zeros(0) if absent else _matrix(dnode, "distortion_coefficients", path)
+        model_node = fs.getNode("distortion_model")
+        model = model_node.string().strip().lower() if model_node.isString() else ""
+        fisheye_node = fs.getNode("fisheye_model")
+        flag = (fisheye_node.isInt() or fisheye_node.isReal()) and fisheye_node.real() != 0
+        if model and model not in _FISHEYE + _PLUMB_BOB:
+            raise ValueError(
+                f"path: {path}: distortion_model '{model}' is not supported "
+                "(plumb_bob, equidistant / fisheye, or rational_polynomial with k4 = k5 = k6 = 0)"
+            )
+        return {
+            "K": K,
+            "dist": dist.ravel(),
+            "width": _number(fs, "image_width", path),
+            "height": _number(fs, "image_height", path),
+            "fisheye": model in _FISHEYE or bool(flag),
+        }
+    finally:
+        fs.release()

@@ -1,0 +1,75 @@
+"""Command line: `ibvs` / `python -m ibvs`.
+
+    ibvs reproduce [--out DIR] [--quick]          every experiment of the paper, figures and summary
+    ibvs run --world W --scheme S --case C ...    one simulated episode (--plot, --animate)
+    ibvs bench [...]                              control-step timings, bindings vs numpy
+    ibvs sweep --out F.csv [--scenario S.toml]    thousands of episodes per scheme, aggregate tables
+    ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
+
+Every bad argument exits with status 2 and one line before any work starts. An interrupted
+sweep (Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume.
+
+Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
+sweep`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import ibvs
+
+from . import args as a
+from . import run, sweep
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of every command but `bench` (whose options go to ibvs.bench as they are)."""
+    p = a.Parser(prog="ibvs", description="Image-based visual servoing: Cartesian, polar and hybrid.")
+    p.add_argument("--version", action="version", version=f"ibvs {ibvs.__version__}")
+    p.add_argument("--cmake-dir", action="store_true", help="print the directory holding ibvsConfig.cmake and exit")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    r = sub.add_parser("reproduce", help="run every experiment of the paper; write figures and a summary",
+                       description="Run every experiment of the paper (Figs. 1-8), write PNG figures, summary.md and "
+                                   "summary.csv, and print the summary table.")
+    r.add_argument("--out", type=a.out_dir, default=Path("ibvs-results"),
+                   help="output directory (default ./ibvs-results; created if missing)")
+    r.add_argument("--quick", action="store_true", help="small, fast figures (for CI); the simulations are the same")
+    a.add_angle_wrap(r, "consistent")
+
+    run.add_parser(sub)
+    sweep.add_parser(sub)
+
+    b = sub.add_parser("bench", help="time the control step through the bindings next to numpy",
+                       description="Time the control step through the bindings next to a numpy reference.")
+    b.add_argument("args", nargs="*", help="options of python -m ibvs.bench (see python -m ibvs.bench --help)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line (sys.argv[1:] by default); returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"] and not {"-h", "--help"} & set(argv[1:2]):
+        # Every option after `bench` belongs to python -m ibvs.bench (argparse's REMAINDER drops `--x`).
+        from .. import bench
+
+        return bench.main(argv[1:])
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.cmake_dir:
+        print(ibvs.cmake_dir())
+        return 0
+    if args.command == "reproduce":
+        from ..study.reproduce import reproduce
+
+        reproduce(args.out, quick=args.quick, angle_wrap=args.angle_wrap)
+        return 0
+    if args.command == "run":
+        return run.command(args)
+    if args.command == "sweep":
+        return sweep.command(args)
+    parser.print_help()
+    return 0

@@ -1,0 +1,118 @@
+"""`ibvs run`: one simulated episode, its status and metrics printed, drawn (--plot), animated
+(--animate) or closed through rendered images (--vision, --video)."""
+
+from __future__ import annotations
+
+import math
+
+from . import args as a
+
+
+def add_parser(sub) -> None:
+    """The `run` subcommand's parser."""
+    from ..study.reproduce import CASES, DEFAULT_CASE
+    from ..study.schemes import SCHEMES, TITLES
+
+    cases = sorted({c for w in CASES.values() for c in w})
+    one = sub.add_parser("run", help="simulate one episode and print its status and metrics",
+                         description="Simulate one episode and print its status and metrics; draw it (--plot) or "
+                                     "animate it (--animate).")
+    one.add_argument("--world", choices=sorted(CASES), default="free", help="free-flying camera or gantry")
+    one.add_argument("--scheme", choices=list(SCHEMES), default="polar",
+                     help="; ".join(f"{k}: {v}" for k, v in TITLES.items() if k in SCHEMES) + " (default polar)")
+    one.add_argument("--case", choices=cases,
+                     help="which start pose (default: " + ", ".join(f"{v} for {k}" for k, v in DEFAULT_CASE.items())
+                          + ")")
+    one.add_argument("--rotation-deg", type=a.number(-360, 360), metavar="DEG",
+                     help="angle of the z-rotation case about the optical axis, in degrees (default 180)")
+    one.add_argument("--plot", type=a.figure_file, metavar="FILE", help="save the episode's figure (PNG, PDF, SVG)")
+    one.add_argument("--animate", type=a.animation_file, metavar="FILE",
+                     help="write an animation: camera view and 3D scene (.gif, or .mp4 with imageio-ffmpeg)")
+    one.add_argument("--vision", choices=["dots", "tag"],
+                     help="close the loop through rendered images: white dots (tracked) or an AprilTag 36h11 "
+                          "(cv2.aruco); a normalised camera becomes 640x480 with f = 800 px (needs ibvs[vision])")
+    one.add_argument("--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
+                     help="with --vision: the camera frames with detected (green) and desired (red) points, "
+                          ".mp4 (imageio-ffmpeg; else a GIF, with a message) or .gif")
+    one.add_argument("--speed", type=a.number(0, 1000, open_lo=True), default=1.0,
+                     help="animation speed: simulated seconds per second of video (default 1, real time)")
+    one.add_argument("--seed", type=a.number(0, a.SEED_MAX, integer=True), default=0, help="seed of the noise")
+    one.add_argument("--noise", type=a.number(0, 1e4), default=0.0, metavar="STD", help=a.NOISE_HELP)
+    one.add_argument("--latency", type=a.number(0, 1000, integer=True), default=0, metavar="FRAMES",
+                     help="frames between capture and control (fewer than the episode's frames)")
+    one.add_argument("--gain", type=a.number(0, 1e4, open_lo=True), help="control gain, 1/s (default per world)")
+    one.add_argument("--duration", type=a.number(0, 3600, open_lo=True), metavar="SECONDS",
+                     help="episode length in seconds, at most 3600 (default per world)")
+    one.add_argument("--depth", choices=["exact", "pose", "desired", "estimated"], help=a.DEPTH_HELP)
+    one.add_argument("--tolerance", type=a.number(0, 1e6), default=1e-5, help=a.TOLERANCE_HELP)
+    a.add_angle_wrap(one, "consistent")
+
+
+def command(args) -> int:
+    """Run `ibvs run`; the exit status (0 when the episode converged, else 1)."""
+    from .. import sim
+    from ..study import reproduce
+
+    prog = "ibvs run"
+    case = args.case or reproduce.DEFAULT_CASE[args.world]
+    if case not in reproduce.CASES[args.world]:
+        a.fail(prog, f"argument --case: {case} is not available for --world {args.world}; "
+                            f"choose from {', '.join(sorted(reproduce.CASES[args.world]))}")
+    custom = None
+    if args.rotation_deg is not None:
+        if case != "z-rotation":
+            a.fail(prog, "argument --rotation-deg: only with --case z-rotation")
+        custom = sim.cases.z_rotation(math.radians(args.rotation_deg))
+    c = custom or reproduce.make_case(args.world, case)
+    duration = args.duration if args.duration is not None else reproduce.DURATION[args.world]
+    frames = round(duration * c.camera.fps)
+    if args.latency >= frames:
+        a.fail(prog, f"argument --latency: {args.latency} frames is not shorter than the episode "
+                            f"({frames} frames)")
+    if (args.depth or reproduce.DEPTH[args.world]) == "pose" and not c.target.planar:
+        a.fail(prog, "argument --depth: pose needs a planar target")
+    sensor = None
+    if args.video and not args.vision:
+        a.fail(prog, "argument --video: needs --vision dots or --vision tag")
+    if args.vision:
+        try:
+            from .. import vision
+        except ImportError as e:
+            a.fail(prog, f"argument --vision: {e}")
+        try:
+            sensor = vision.ImageSensor.for_target(vision.image_camera(c.camera), c.target, args.vision,
+                                                   keep_frames=bool(args.video))
+        except ValueError as e:
+            a.fail(prog, f"argument --vision: {e}")
+    case_obj, result = reproduce.run_one(args.world, case, args.scheme, duration=duration, noise=args.noise,
+                                         latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
+                                         tolerance=args.tolerance, case_object=c, angle_wrap=args.angle_wrap,
+                                         vision=sensor)
+    row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
+    from ..study.schemes import TITLES
+
+    wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
+    title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}{wrap}"
+    print(title)
+    for name, value in zip(reproduce.Row.HEADERS[3:], row.cells()[3:]):
+        if name != "paper":
+            print(f"  {name:18s} {value}")
+    if args.plot:
+        from .. import viz
+
+        viz.episode(result, title=title).savefig(args.plot, dpi=90)
+        print(f"  figure             {args.plot}")
+    if args.animate:
+        from .. import viz
+
+        n = viz.animate(result, args.animate, labels=[title], speed=args.speed)
+        print(f"  animation          {args.animate} ({n} frames)")
+    if args.video:
+        from .. import vision
+
+        cam = sensor.renderer.camera
+        pixels = result.history.measured
+        desired = cam.project(result.uv_desired)
+        written = vision.write_video(args.video, sensor.frames, pixels, desired, fps=cam.fps)
+        print(f"  video              {written} ({len(sensor.frames)} frames)")
+    return 0 if result.status.outcome == "converged" else 1

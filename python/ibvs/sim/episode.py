@@ -1,0 +1,194 @@
+"""One closed-loop episode: ibvs.sim.run checks its arguments, runs the loop in C++ and wraps what
+comes back in a Result."""
+
+from __future__ import annotations
+
+from typing import Optional, Union
+
+import numpy as np
+
+from .._core import CameraModel, PartitionedServo, Servo
+from .._core import sim as _sim
+from .result import History, Metrics, Result, RunStatus
+
+# The simulator's parts under their ibvs.sim names (the native classes themselves).
+Camera = CameraModel  # the simulator's camera is the core's CameraModel (the same class)
+Target = _sim.Target
+Robot = _sim.Robot
+Gantry = _sim.Gantry
+Sensor = _sim.Sensor
+
+
+_REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}
+
+
+def _describe_servo(servo) -> str:
+    """A short name of a servo's control law, e.g. "polar 8x6", "stacked 16x6", "partitioned (4 points)"."""
+    if isinstance(servo, PartitionedServo):
+        return f"partitioned ({servo.n_points} points)"
+    layout = servo.layout
+    kinds = {str(rep) for _, rep in layout.blocks}
+    points = [p for p, _ in layout.blocks]
+    if len(points) > len(set(points)):
+        name = "stacked"
+    elif len(kinds) > 1:
+        name = "hybrid"
+    else:
+        name = _REPRESENTATION_NAMES.get(next(iter(kinds), ""), "")
+    out = f"{name} {layout.rows}x6".strip()
+    pmr = getattr(servo, "polar_min_radius", 1e-3)
+    if "polar" in kinds and pmr != 1e-3:  # e.g. Servo.automatic_hybrid: Cartesian near the centre
+        out += f", Cartesian within r < {pmr:g}"
+    return out
+
+
+def _bool(x, name: str) -> bool:
+    if not isinstance(x, (bool, np.bool_)):  # "no" or 0 are not read as a truth value
+        raise TypeError(f"{name} must be a bool, got {type(x).__name__}")
+    return bool(x)
+
+
+def _real(x, name: str) -> float:
+    """A real scalar: int, float, a numpy real scalar or 0-d array (not bool, complex or str)."""
+    if isinstance(x, np.ndarray) and x.ndim == 0 and x.dtype.kind in "iuf":
+        return float(x)
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {type(x).__name__}")
+    return float(x)
+
+
+def run(
+    servo: Union[Servo, PartitionedServo],
+    camera: Camera,
+    target: Target,
+    start,
+    goal,
+    robot: Optional[Robot] = None,
+    duration: float = 10.0,
+    noise: float = 0.0,
+    latency: int = 0,
+    depth: str = "exact",
+    seed: int = 0,
+    tolerance: float = 1e-4,
+    max_depth_ratio: float = 10.0,
+    max_error_ratio: float = 100.0,
+    stop_on_singular: bool = True,
+    depth_scale: float = 1.0,
+    boundary_margin: float = 0.0,
+    boundary_gain: float = 0.1,
+    standoff_ratio: float = 0.05,
+    vision=None,
+) -> Result:
+    """Simulate one closed-loop episode (in C++) and return its Result.
+
+    servo: an ibvs.Servo (any layout and every option: gain or AdaptiveGain, damping,
+        jacobian mode, polar_min_radius, max_linear_speed / max_angular_speed) or an
+        ibvs.PartitionedServo. The episode runs a copy with the same options, with its
+        diagnostics on (the history records sigma_min); the object itself is not modified.
+    camera, target: an ibvs.CameraModel (also ibvs.sim.Camera) and a Target with as many points
+        as the servo's layout. A point the camera model cannot map (beyond its max_radius) ends
+        the episode as left_image, like a point outside the sensor.
+    start, goal: 4x4 world <- camera poses; with a robot (an ibvs.sim.Robot: a Gantry, a
+        UrdfRobot or any subclass), start is its n joint positions and goal n joint positions
+        or a 4x4 world <- camera pose. The desired features are what the camera measures at
+        the goal. The robot's JointMapping turns each twist into joint velocities (scaled to
+        its speed limits). The C++ gantry runs without the GIL; a Python robot (UrdfRobot)
+        is called once per frame with the GIL held.
+    duration: seconds; the episode has round(duration * camera.fps) frames.
+    noise: std of Gaussian noise on the measured points, in measurement units (pixels;
+        normalised units for Camera.normalized).
+    latency: frames between capture and control.
+    depth: "exact" (true depths), "pose" (from a planar pose estimate of the measured
+        points; needs a planar target), "desired" (the constant desired depths) or
+        "estimated" (online, per point, from successive frames and the camera's motion
+        between them as the robot reports it: a Kalman filter on the point and its
+        inverse depth (x, y, 1/z), initialised at depth_scale * z*).
+    depth_scale: in [1e-3, 1e3], multiplies the depth given to the controller (a depth calibration
+        error; 1 = none). With depth="estimated" it scales the initial guess only.
+    seed: seed of the noise generator (std::mt19937_64).
+    tolerance: converged when the servo's error norm is below this.
+    max_depth_ratio, max_error_ratio: diverged when the target's depth or the error norm
+        exceeds this multiple of its start value.
+    stop_on_singular: end with "singular" when the servo reports a rank-deficient J.
+    boundary_margin: >= 0, measurement units (pixels; normalised units for
+        Camera.normalized). When > 0, an image-boundary potential (paper Section IV,
+        Corke & Hutchinson 2001) adds a camera retreat to Tz while a point is within
+        this distance of a side of the sensor (at most its goal's distance to that side),
+        growing without bound towards the border; 0 (default) = off.
+    boundary_gain: >= 0, 1/s, weight of that retreat.
+    standoff_ratio: >= 0: the episode ends as "collision" when the camera centre comes
+        closer to the target than this times the goal depth of the target's centroid
+        (default 5 %), or goes through a planar target; "target_backside" when it goes
+        behind a planar target's plane (see RunStatus).
+    vision: None (the points are the camera model's projections plus `noise`), "dots" or "tag"
+        (ibvs.vision.ImageSensor.for_target(camera, target, vision): each frame is rendered,
+        the dots tracked or the tag detected, and their pixels undistorted for the servo; a
+        point the tracker loses ends the episode as lost_feature), or any ibvs.sim.Sensor
+        (an ImageSensor with your renderer options). Needs a pixel camera. With a sensor,
+        `noise` is not added (the image has its own) but still tells the depth estimator the
+        measurement noise (px).
+    """
+    if robot is not None and not isinstance(robot, Robot):
+        raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be an ibvs.CameraModel (ibvs.sim.Camera), got {type(camera).__name__}")
+    if not isinstance(target, Target):
+        raise TypeError(f"target must be an ibvs.sim.Target, got {type(target).__name__}")
+    if isinstance(latency, bool) or not isinstance(latency, (int, np.integer)):
+        raise TypeError(f"latency must be an int (frames), got {type(latency).__name__}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise TypeError(f"seed must be a non-negative int, got {seed!r}")
+    if isinstance(vision, str):
+        from .. import vision as _vision
+
+        vision = _vision.ImageSensor.for_target(camera, target, vision)
+    elif vision is not None and not isinstance(vision, Sensor):
+        raise TypeError(f"vision must be None, 'dots', 'tag' or an ibvs.sim.Sensor, got {type(vision).__name__}")
+    d = _sim._run(
+        servo,
+        camera,
+        target,
+        start,
+        goal,
+        robot,
+        duration=_real(duration, "duration"),
+        noise=_real(noise, "noise"),
+        latency=int(latency),
+        depth=depth,
+        seed=int(seed),
+        tolerance=_real(tolerance, "tolerance"),
+        max_depth_ratio=_real(max_depth_ratio, "max_depth_ratio"),
+        max_error_ratio=_real(max_error_ratio, "max_error_ratio"),
+        stop_on_singular=_bool(stop_on_singular, "stop_on_singular"),
+        depth_scale=_real(depth_scale, "depth_scale"),
+        boundary_margin=_real(boundary_margin, "boundary_margin"),
+        boundary_gain=_real(boundary_gain, "boundary_gain"),
+        standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
+        sensor=vision,
+    )
+    status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
+    metrics = Metrics(
+        d["frames_to_converge"],
+        d["camera_retreat"],
+        d["path_length"],
+        d["final_translation_error"],
+        d["final_rotation_error"],
+    )
+    history = History(
+        d["time"],
+        d["pose"],
+        d["twist"],
+        d["uv"],
+        d["rtheta"],
+        d["depth"],
+        d["error"],
+        d["error_norm"],
+        d["sigma_min"],
+        d.get("q"),
+        d.get("qdot"),
+        d.get("manipulability"),
+        d["measured"],
+        d["projected"],
+    )
+    return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
+                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision)

@@ -1,0 +1,131 @@
+"""The sweep's tables: its rows aggregated per scheme and bin (aggregate), as Markdown
+(format_table) and as a figure (figure, through ibvs.viz.sweep_summary)."""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Iterable, Optional, Sequence, Union
+
+import numpy as np
+
+from ... import sim
+from ..schemes import SCHEMES
+from ..scenario import PARAMETERS
+
+#: Default bins of the optical-axis rotation (degrees).
+ROTATION_BINS = tuple(range(0, 181, 30))
+
+
+def outcomes(rows: Iterable[dict] = ()) -> list[str]:
+    """The outcome columns of a table: ibvs.sim.OUTCOMES, then any other outcome in rows (but
+    invalid_start, which is counted apart)."""
+    names = list(sim.OUTCOMES)
+    for r in rows:
+        o = r["outcome"]
+        if o not in names and o != "invalid_start":
+            names.append(o)
+    return names
+
+
+def bins_for(rows: Sequence[dict], by: str = "rz_deg", width: Optional[float] = None) -> list[float]:
+    """Bin edges for the values of `by` in rows: ROTATION_BINS (or multiples of width from 0 to
+    180) when by is rz_deg and every value is in [0, 180]; else multiples of width (default: six
+    bins) spanning the values."""
+    xs = [r[by] for r in rows if math.isfinite(r[by])] or [0.0]
+    lo, hi = min(xs), max(xs)
+    if by == "rz_deg" and lo >= 0 and hi <= 180:
+        lo, hi = 0.0, 180.0
+        if width is None:
+            return [float(b) for b in ROTATION_BINS]
+    if width is None:
+        width = (hi - lo) / 6 or 1.0
+    a, b = math.floor(lo / width), max(math.ceil(hi / width), math.floor(lo / width) + 1)
+    if b - a > 10_000:
+        raise ValueError(f"bins: width {width:g} makes {b - a} bins; use a larger width")
+    return [k * width for k in range(a, b + 1)]
+
+
+def _median(xs) -> float:
+    xs = [x for x in xs if math.isfinite(x)]
+    return float(np.median(xs)) if xs else math.nan
+
+
+def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[float]] = None) -> list[dict]:
+    """Per scheme and bin of `by` (edges `bins`, last bin closed; default bins_for(rows, by)):
+    n (episodes with a valid start), the fraction of each outcome (a key per outcome of
+    outcomes(rows): converged, left_image, ..., timeout, and any added later), time (median
+    time to converge, s, converged only), the medians of retreat (camera retreat, m), path
+    (camera path length, m), peak_linear_speed (m/s) and peak_angular_speed (rad/s) over the
+    valid episodes, and invalid (starts skipped: target not in view or unreachable). Every
+    row of the table also holds "outcomes", the list of outcome keys. Deterministic: rows are
+    taken in (index, scheme) order."""
+    if by not in PARAMETERS:
+        raise ValueError(f"by must be one of {PARAMETERS}, got {by!r}")
+    rows = sorted(rows, key=lambda r: (r["index"], r["scheme"]))
+    edges = bins_for(rows, by) if bins is None else [float(b) for b in bins]
+    if len(edges) < 2 or any(b >= a for a, b in zip(edges[1:], edges)) or not all(map(math.isfinite, edges)):
+        raise ValueError(f"bins must be at least two finite increasing edges, got {list(bins)}")
+    names = outcomes(rows)
+    order = list(SCHEMES)  # registry order, then any other scheme
+    schemes = sorted(dict.fromkeys(r["scheme"] for r in rows), key=lambda s: (order.index(s) if s in order
+                                                                                 else len(order), s))
+    groups: dict = {}
+    for r in rows:
+        x = r[by]
+        k = int(np.searchsorted(edges, x, side="right")) - 1
+        if k == len(edges) - 1 and x == edges[-1]:
+            k -= 1
+        if 0 <= k < len(edges) - 1:
+            groups.setdefault((r["scheme"], k), []).append(r)
+    table = []
+    for s in schemes:
+        for k in range(len(edges) - 1):
+            g = groups.get((s, k), [])
+            valid = [r for r in g if r["outcome"] != "invalid_start"]
+            n = len(valid)
+            t = {"scheme": s, "bin": f"[{edges[k]:g}, {edges[k + 1]:g}{']' if k == len(edges) - 2 else ')'}",
+                 "lo": edges[k], "hi": edges[k + 1], "n": n}
+            for o in names:
+                t[o] = sum(r["outcome"] == o for r in valid) / n if n else math.nan
+            t["time"] = _median(r["time_to_converge"] for r in valid if r["outcome"] == "converged")
+            for key, col in (("retreat", "camera_retreat"), ("path", "path_length"),
+                             ("peak_linear_speed", "peak_linear_speed"), ("peak_angular_speed", "peak_angular_speed")):
+                t[key] = _median(r[col] for r in valid)
+            t["invalid"] = len(g) - n
+            t["outcomes"] = names
+            table.append(t)
+    return table
+
+
+_METRIC_COLUMNS = (("time", "time (s)"), ("retreat", "retreat (m)"), ("path", "path (m)"),
+                   ("peak_linear_speed", "peak ‖T‖ (m/s)"), ("peak_angular_speed", "peak ‖ω‖ (rad/s)"),
+                   ("invalid", "invalid starts"))
+
+
+def format_table(table: list[dict], by: str = "rz_deg") -> str:
+    """Markdown table of aggregate(): a column per outcome (% of the valid starts), then the
+    medians."""
+    names = list(table[0]["outcomes"]) if table else list(sim.OUTCOMES)
+    columns = [("scheme", "scheme"), ("bin", by), ("n", "n")] + [(o, o) for o in names] + list(_METRIC_COLUMNS)
+    lines = ["| " + " | ".join(h for _, h in columns) + " |", "|" + "---|" * len(columns)]
+    for t in table:
+        cells = []
+        for k, _ in columns:
+            x = t[k]
+            if k in names:
+                cells.append("-" if math.isnan(x) else f"{100 * x:.1f} %")
+            elif isinstance(x, float):
+                cells.append("-" if math.isnan(x) else f"{x:.4g}")
+            else:
+                cells.append(str(x))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def figure(table: list[dict], path: Union[str, os.PathLike], by: str = "rz_deg", dpi: int = 90) -> None:
+    """Save ibvs.viz.sweep_summary(table, by): every outcome's rate and the median retreat,
+    path and peak twist against the bins of `by`, one curve per scheme."""
+    from ... import viz
+
+    viz.sweep_summary(table, by).savefig(os.fspath(path), dpi=dpi)

@@ -1,0 +1,41 @@
+"""ibvs.vision: the image in the loop. What the simulated camera sees of a planar target, and
+the dots or the tag found in it (OpenCV; extra ``ibvs[vision]``).
+
+    renderer = Renderer(camera, target, kind="dots")     # white dots on a dark plate, or kind="tag"
+    image = renderer.render(pose_wc)                     # uint8 (height, width), the camera's lens
+    tracker = DotTracker(len(target))
+    tracker.reset(initial_pixels)                        # the user's clicks on the dots
+    track = tracker.track(image)                         # pixels (N, 2), NaN rows = lost, status per point
+    sensor = ImageSensor(renderer, tracker)              # for ibvs.sim.run(..., vision=sensor)
+
+Pixel coordinates are OpenCV's (and CameraModel's, cv2.projectPoints'): the centre of the pixel in
+column c and row r is (u, v) = (c, r). A camera for images has a pixel sensor whose bounds are
+[0, width] x [0, height] with integer width and height.
+
+Modules: images (cameras with images, image checks), renderer (Renderer), track (Track), dots
+(DotTracker), tag (TagDetector), sensor (ImageSensor), video (draw_points, write_video); this
+package re-exports their public names. Rendering is described in ibvs.vision.renderer.
+"""
+
+from __future__ import annotations
+
+from .dots import DotTracker
+from .images import check_image, image_camera
+from .renderer import KINDS, Renderer
+from .sensor import ImageSensor
+from .tag import TagDetector
+from .track import Track
+from .video import draw_points, write_video
+
+__all__ = [
+    "KINDS",
+    "DotTracker",
+    "ImageSensor",
+    "Renderer",
+    "TagDetector",
+    "Track",
+    "check_image",
+    "draw_points",
+    "image_camera",
+    "write_video",
+]

@@ -1,0 +1,133 @@
+"""The dot tracker: bright dots on a dark plate followed frame to frame (OpenCV)."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Optional
+
+import numpy as np
+
+from .images import check_image, check_real, opencv
+from .track import Track
+
+
+class DotTracker:
+    """Bright dots on a dark background, tracked frame to frame.
+
+    DotTracker(n_points, image_size, threshold=None, gate=10.0, min_area=4)
+      image_size  (width, height) of the images (e.g. Renderer.size)
+      threshold   gray level separating dots from the plate; None: Otsu's on the first image
+      gate        px added to 1.5 dot radii: the half-side of the square searched around each
+                  point's predicted position (constant-velocity prediction from its last two positions)
+      min_area    px; smaller blobs are ignored (noise)
+    reset(pixels) starts the tracks at guesses (N, 2) (a user clicking on the dots); track(image)
+    finds each dot in its gate: threshold, connected components, the blob nearest the prediction,
+    its sub-pixel intensity centroid (background-subtracted, over the blob grown by 2 px). A dot is
+    lost when its blob touches the image border or its gate, or no blob is in its gate; a blob
+    already taken by another point is refused ("conflict"): correspondences never swap.
+    """
+
+    def __init__(
+        self,
+        n_points: int,
+        image_size,
+        threshold: Optional[float] = None,
+        gate: float = 10.0,
+        min_area: int = 4,
+    ):
+        if (
+            isinstance(n_points, bool)
+            or not isinstance(n_points, (int, np.integer))
+            or not 1 <= n_points <= 1000
+        ):
+            raise ValueError(f"n_points must be an int in [1, 1000], got {n_points!r}")
+        if (
+            not isinstance(image_size, (tuple, list))
+            or len(image_size) != 2
+            or not all(isinstance(s, (int, np.integer)) and 16 <= s <= 8192 for s in image_size)
+        ):
+            raise ValueError(f"image_size must be (width, height), ints in [16, 8192], got {image_size!r}")
+        self.n = int(n_points)
+        self.size = (int(image_size[0]), int(image_size[1]))
+        self.threshold = None if threshold is None else check_real(threshold, "threshold", 0.0, 255.0)
+        self.gate = check_real(gate, "gate", 1.0, 1000.0)
+        if isinstance(min_area, bool) or not isinstance(min_area, (int, np.integer)) or min_area < 1:
+            raise ValueError(f"min_area must be an int >= 1, got {min_area!r}")
+        self.min_area = int(min_area)
+        self._last = self._prev = None
+
+    def reset(self, pixels) -> None:
+        """Start tracking at the guesses pixels (N, 2)."""
+        p = np.asarray(pixels, dtype=np.float64)
+        if p.shape != (self.n, 2) or not np.isfinite(p).all():
+            raise ValueError(
+                f"pixels must be {self.n} finite guesses, shape ({self.n}, 2), got shape {p.shape}"
+            )
+        self._last, self._prev = p.copy(), None
+        self._radius = np.full(self.n, np.nan)
+        self._level = self.threshold
+
+    def track(self, image) -> Track:
+        """The dots in this image (see the class)."""
+        cv2 = opencv()
+        image = check_image(image, self.size)
+        if self._last is None:
+            raise ValueError("reset(pixels) must start the tracks before track(image)")
+        t0 = time.perf_counter()
+        if self._level is None:
+            self._level = float(cv2.threshold(image, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)[0])
+        W, H = self.size
+        pred = self._last if self._prev is None else 2 * self._last - self._prev
+        out = np.full((self.n, 2), np.nan)
+        status = ["lost_gate"] * self.n
+        taken: list = []
+        kernel = np.ones((5, 5), np.uint8)
+        for i in range(self.n):
+            if not np.isfinite(pred[i]).all():
+                continue
+            r = self._radius[i]
+            g = (1.5 * r if np.isfinite(r) else 4 * self.gate) + self.gate
+            x0, y0 = int(math.floor(pred[i, 0] - g)), int(math.floor(pred[i, 1] - g))
+            x1, y1 = int(math.ceil(pred[i, 0] + g)) + 1, int(math.ceil(pred[i, 1] + g)) + 1
+            cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+            if cx1 - cx0 < 2 or cy1 - cy0 < 2:
+                status[i] = "lost_border"
+                continue
+            roi = image[cy0:cy1, cx0:cx1]
+            binary = (roi > self._level).astype(np.uint8)
+            count, labels, stats, cents = cv2.connectedComponentsWithStats(binary, connectivity=8)
+            # the blob (of at least min_area pixels) whose centroid is nearest the prediction
+            dist = np.hypot(cents[1:, 0] + cx0 - pred[i, 0], cents[1:, 1] + cy0 - pred[i, 1])
+            dist[stats[1:, cv2.CC_STAT_AREA] < self.min_area] = np.inf
+            if dist.size == 0 or not np.isfinite(dist.min()):
+                continue
+            best = int(np.argmin(dist)) + 1
+            bx, by, bw, bh = stats[best, :4]
+            gx0, gy0, gx1, gy1 = bx + cx0, by + cy0, bx + bw + cx0, by + bh + cy0  # blob box, image pixels
+            if gx0 <= 0 or gy0 <= 0 or gx1 >= W or gy1 >= H:
+                status[i] = "lost_border"
+                continue
+            if gx0 <= cx0 or gy0 <= cy0 or gx1 >= cx1 or gy1 >= cy1:
+                status[i] = "lost_gate"
+                continue
+            blob = (labels == best).astype(np.uint8)
+            grown = cv2.dilate(blob, kernel)
+            others = (labels > 0) & (blob == 0)
+            bg_pixels = roi[(grown == 0) & ~others]
+            bg = float(np.median(bg_pixels)) if bg_pixels.size else 0.0
+            w = np.where((grown > 0) & ~others, np.maximum(roi.astype(np.float64) - bg, 0.0), 0.0)
+            total = w.sum()
+            if not total > 0:
+                continue
+            ys, xs = np.indices(w.shape)
+            c = np.array([(w * xs).sum() / total + cx0, (w * ys).sum() / total + cy0])
+            if any(np.hypot(*(c - out[j])) < 1.0 for j in taken):
+                status[i] = "conflict"
+                continue
+            out[i] = c
+            taken.append(i)
+            status[i] = "tracked"
+            self._radius[i] = math.sqrt(stats[best, cv2.CC_STAT_AREA] / math.pi)
+        self._prev, self._last = self._last, np.where(np.isfinite(out), out, np.nan)
+        return Track(out, tuple(status), time.perf_counter() - t0)

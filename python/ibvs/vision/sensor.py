@@ -1,0 +1,78 @@
+"""The image sensor: the simulator's measurement through rendered images and a tracker or detector."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .._core import sim as _sim
+from .dots import DotTracker
+from .renderer import Renderer
+from .tag import TagDetector
+
+
+class ImageSensor(_sim.Sensor):
+    """The simulator's measurement through images: ibvs.sim.run(..., vision=ImageSensor(renderer, detector)).
+
+    Each frame: renderer.render(pose, twist) -> detector (a DotTracker, started at frames -1 (goal)
+    and 0 from the true projections, as a user clicks on the dots; or a TagDetector) -> pixels, NaN
+    for a lost point (the episode then ends as lost_feature). The renderer's noise is reseeded with
+    the run's seed. keep_frames=True keeps every image (frames[k] is frame k; goal_image the goal's)
+    for a video; render_seconds and detect_seconds hold each frame's times.
+    """
+
+    def __init__(self, renderer: Renderer, detector, keep_frames: bool = False):
+        super().__init__()
+        if not isinstance(renderer, Renderer):
+            raise TypeError(f"renderer must be an ibvs.vision.Renderer, got {type(renderer).__name__}")
+        if not isinstance(detector, (DotTracker, TagDetector)):
+            raise TypeError(
+                f"detector must be an ibvs.vision.DotTracker or TagDetector, got {type(detector).__name__}"
+            )
+        n = detector.n if isinstance(detector, DotTracker) else detector.n_points
+        if n != len(renderer.target):
+            raise ValueError(f"detector: it measures {n} points but the target has {len(renderer.target)}")
+        if isinstance(detector, DotTracker) and detector.size != renderer.size:
+            raise ValueError(
+                f"detector: image_size {detector.size} differs from the camera's {renderer.size}"
+            )
+        self.renderer, self.detector, self.keep_frames = renderer, detector, bool(keep_frames)
+        self.frames: list = []
+        self.goal_image = None
+        self.render_seconds: list = []
+        self.detect_seconds: list = []
+
+    @classmethod
+    def for_target(cls, camera, target, kind: str = "dots", keep_frames: bool = False, **renderer_options):
+        """The default image sensor: Renderer(camera, target, kind, **renderer_options) and a DotTracker
+        (dots) or a TagDetector of tag 0 (tag)."""
+        r = Renderer(camera, target, kind, **renderer_options)
+        if kind == "dots":
+            det = DotTracker(len(target), r.size)
+        else:
+            det = TagDetector((r.tag_id,), r.dictionary, image_size=r.size)
+        return cls(r, det, keep_frames)
+
+    def reset(self, seed: int) -> None:
+        self.renderer.reseed(seed)
+        self.frames, self.goal_image = [], None
+        self.render_seconds, self.detect_seconds = [], []
+
+    def measure(self, frame: int, pose, projected, twist) -> np.ndarray:
+        t0 = time.perf_counter()
+        image = self.renderer.render(pose, twist)
+        self.render_seconds.append(time.perf_counter() - t0)
+        if isinstance(self.detector, DotTracker):
+            if frame <= 0:
+                self.detector.reset(projected)
+            track = self.detector.track(image)
+        else:
+            track = self.detector.detect(image)
+        self.detect_seconds.append(track.seconds)
+        if self.keep_frames:
+            if frame < 0:
+                self.goal_image = image
+            else:
+                self.frames.append(image)
+        return track.pixels
