@@ -1,6 +1,6 @@
 // Bindings of ibvs::CameraModel (ibvs.CameraModel, also ibvs.sim.Camera).
 // Argument conversion only; the model is cpp/src/camera_model.cpp, the
-// calibration-file reader python/ibvs/_calibration.py.
+// calibration-file reader python/ibvs/camera_files.py.
 #include "convert.hpp"
 #include "ibvs/camera_model.hpp"
 #include "py_servo.hpp"
@@ -189,7 +189,7 @@ distortion. width, height: image size in pixels.)")
       .def_static(
           "from_yaml",
           [](py::handle path, py::handle fps) {
-            const py::dict d = py::module_::import("ibvs._calibration").attr("read")(path);
+            const py::dict d = py::module_::import("ibvs.camera_files").attr("read")(path);
             return CameraModel::from_opencv(k_arg(d["K"]), dist_arg(d["dist"]), real(d["width"], "image_width"),
                                             real(d["height"], "image_height"), boolean(d["fisheye"], "fisheye_model"),
                                             real(fps, "fps"));

@@ -13,7 +13,7 @@ Private names are those starting with one underscore. Two kinds of import of one
   - by a package's own __init__ from its children (the package re-exporting what is inside it).
 Every other module uses only public names of the others (a name in a module's __all__ or not
 starting with an underscore), whether imported (from m import _x) or reached as an attribute
-(m._x), and imports no private module (ibvs._calibration exists only for the compiled module).
+(m._x), and imports no private module.
 """
 
 from __future__ import annotations
