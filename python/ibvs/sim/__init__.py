@@ -11,6 +11,9 @@ returns the history as numpy arrays.
     fig = result.plot()                  # a matplotlib Figure (ibvs.viz.episode)
     result.animate("run.gif", speed=2)   # camera view and 3D scene (ibvs.viz.animate)
 
+A robot carries the camera: sim.Gantry.afma6(), or any arm from its URDF (sim.UrdfRobot, Pinocchio);
+sim.solve_ik(robot, camera_pose, q0) finds its joints for a camera pose (sim.ik).
+
 Frames and conventions are those of ibvs (camera x right, y down, z forward;
 twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera;
 a robot's base frame is the world frame.
@@ -20,6 +23,7 @@ from __future__ import annotations
 
 from . import cases
 from .episode import Camera, Gantry, Robot, Sensor, Target, run
+from .ik import IKResult, solve_ik
 from .poses import pose, pose_deg, rotation
 from .result import OUTCOMES, History, Metrics, Result, RunStatus
 from .urdf import UrdfRobot, example_robot_urdf
@@ -28,6 +32,7 @@ __all__ = [
     "Camera",
     "Gantry",
     "History",
+    "IKResult",
     "Metrics",
     "OUTCOMES",
     "Result",
@@ -42,4 +47,5 @@ __all__ = [
     "pose_deg",
     "rotation",
     "run",
+    "solve_ik",
 ]

@@ -25,9 +25,10 @@ import numpy as np
 
 from .._core import CameraModel
 from .._core import sim as _sim
+from .ik import solve_ik, solve_joints  # noqa: F401  (solve_joints: the name scripts used before solve_ik)
 from .poses import pose
 
-__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "ARMS", "solve_joints", "free_cases", "all_cases", "six_point_circle"]
+__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "arm_robot", "ARMS", "solve_ik", "solve_joints", "free_cases", "all_cases", "six_point_circle"]
 
 
 @dataclass(frozen=True)
@@ -156,30 +157,12 @@ GANTRY_JOINT_LIMIT_T = (-0.03, 0.02, -0.1)
 GANTRY_JOINT_LIMIT_R = (-0.1, 0.1, -0.6)
 
 
-def _rotation_vector(R: np.ndarray) -> np.ndarray:
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    s, c = np.linalg.norm(w) / 2, (np.trace(R) - 1) / 2
-    a = np.arctan2(s, c)
-    return w * (0.5 if a < 1e-9 else a / (2 * s))
-
-
-def solve_joints(robot: _sim.Robot, camera_pose: np.ndarray, q0, iterations: int = 50) -> np.ndarray:
-    """Joint positions placing the camera at camera_pose (4x4, world <- camera), by Newton
-    steps on the robot's camera Jacobian from q0 (minimum-norm steps for a redundant arm).
-    Raises ValueError if it does not converge or the solution is outside the joint limits."""
-    q = np.array(q0, dtype=float)
-    for _ in range(iterations):
-        D = np.linalg.inv(robot.camera(q)) @ camera_pose
-        e = np.r_[D[:3, 3], _rotation_vector(D[:3, :3])]
-        if np.linalg.norm(e) < 1e-13:
-            break
-        J = robot.jacobian(q)
-        q = q + (np.linalg.solve(J, e) if J.shape[1] == 6 else np.linalg.lstsq(J, e, rcond=None)[0])
-    if np.abs(robot.camera(q) - camera_pose).max() > 1e-9:
-        raise ValueError("camera_pose: inverse kinematics did not converge")
-    if robot.outside_limits(q) >= 0:
-        raise ValueError(f"camera_pose: joint {robot.outside_limits(q) + 1} would be outside its limits")
-    return q
+def _start_joints(robot: _sim.Robot, camera_pose: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The start's joints: ibvs.sim.solve_ik from the goal joints (a ValueError if it finds none)."""
+    r = solve_ik(robot, camera_pose, goal)
+    if not r.converged:
+        raise ValueError(f"start: {r.message}")
+    return r.q
 
 
 def _gantry_case(name: str, description: str, t, r, duration: float) -> Case:
@@ -187,7 +170,7 @@ def _gantry_case(name: str, description: str, t, r, duration: float) -> Case:
     goal = np.array(GANTRY_GOAL_Q)
     goal_pose = robot.camera(goal)
     target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, DESIRED_DEPTH)))
-    start = solve_joints(robot, goal_pose @ pose(t=t, r=r), goal)
+    start = _start_joints(robot, goal_pose @ pose(t=t, r=r), goal)
     return Case(name, description, CameraModel.afma6(), target, start, goal, robot, duration,
                 {"start_offset": (t, r)})
 
@@ -210,12 +193,12 @@ def gantry_joint_limit() -> Case:
                         GANTRY_JOINT_LIMIT_T, GANTRY_JOINT_LIMIT_R, 15.0)
 
 
-# Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install "ibvs[robots]"): name ->
-# (goal joints, eMc). Goals: the Panda's "default" posture of its SRDF (its hand pointing down,
-# joint 4 bent), the UR5 elbow up with the tool pointing down (q3 = pi/2 keeps it off the elbow
-# singularity, q5 = -pi/2 off the wrist one); both well inside every joint limit, smallest
-# singular value of the camera Jacobian 0.22. The camera sits 5 cm off the flange axis, 4 cm
-# out, tilted by (0.1, -0.2, 0.3) rad (rxyz).
+# Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install ".[robots]" from the ibvs repository
+# root): name -> (goal joints, eMc). Goals: the Panda's "default" posture of its SRDF (its hand pointing
+# down, joint 4 bent), the UR5 elbow up with the tool pointing down (q3 = pi/2 keeps it off the elbow
+# singularity, q5 = -pi/2 off the wrist one); both well inside every joint limit, smallest singular value
+# of the camera Jacobian 0.22. The camera sits 5 cm off the flange axis, 4 cm out, tilted by
+# (0.1, -0.2, 0.3) rad (rxyz).
 ARMS = {
     "panda": ((0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4), ((0.05, -0.03, 0.04), (0.1, -0.2, 0.3))),
     "ur5": ((0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0), ((0.05, -0.03, 0.04), (0.1, -0.2, 0.3))),
@@ -223,25 +206,42 @@ ARMS = {
 ARM_DESIRED_DEPTH = 0.5
 
 
-def arm_general_motion(name: str = "panda") -> Case:
-    """General motion with a camera on an arm of example-robot-data ("panda": Franka Panda, 7 joints,
-    flange frame panda_hand; "ur5": Universal Robots UR5, 6 joints, flange frame tool0), from its URDF
-    with Pinocchio (ibvs.sim.UrdfRobot; pip install "ibvs[robots]").
-
-    Goal: ARMS[name] joints, the 10 cm square target centred 0.5 m in front of the camera. Start: the
-    camera moved by pose(GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R) in its own frame (as on the
-    gantry), as joints from minimum-norm Newton steps from the goal. Camera: Camera.afma6().
-    """
-    from .urdf import EXAMPLE_ROBOTS, UrdfRobot, example_robot_urdf
+def arm_robot(name: str, eMc=None):
+    """The ibvs.sim.UrdfRobot of ARMS[name] ("panda" or "ur5"), its camera mounted as ARMS says unless
+    eMc (4x4, flange <- camera) is given."""
+    from .urdf import UrdfRobot
 
     if name not in ARMS:
         raise ValueError(f"name must be one of {sorted(ARMS)}, got {name!r}")
-    q_goal, (t, r) = ARMS[name]
-    robot = UrdfRobot(example_robot_urdf(name), EXAMPLE_ROBOTS[name][1], pose(t=t, r=r))
-    goal = np.array(q_goal)
+    return UrdfRobot.example(name, pose(*ARMS[name][1]) if eMc is None else eMc)
+
+
+def arm_general_motion(name: str = "panda", robot: Optional[_sim.Robot] = None, goal=None) -> Case:
+    """General motion with a camera on an arm: by default one of example-robot-data ("panda": Franka
+    Panda, 7 joints, flange frame panda_hand; "ur5": Universal Robots UR5, 6 joints, flange frame tool0),
+    from its URDF with Pinocchio (ibvs.sim.UrdfRobot; pip install ".[robots]" from the ibvs repository root).
+
+    Goal: ARMS[name] joints, the 10 cm square target centred 0.5 m in front of the camera. Start: the
+    camera moved by pose(GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R) in its own frame (as on the
+    gantry), as joints from ibvs.sim.solve_ik started at the goal. Camera: Camera.afma6().
+
+    robot: any other ibvs.sim.Robot (e.g. UrdfRobot(path, frame, eMc)), then `name` only names the case;
+    goal: its goal joints (default: ARMS[name]'s for an example arm, else the middle of every joint's
+    range). ValueError when the start cannot be reached within the joint limits.
+    """
+    if robot is None:
+        robot = arm_robot(name)
+    if goal is None:
+        goal = ARMS[name][0] if name in ARMS and getattr(robot, "example_name", None) == name else \
+            (np.asarray(robot.q_min, dtype=float) + np.asarray(robot.q_max, dtype=float)) / 2
+    goal = np.array(goal, dtype=float)
+    if goal.shape != (robot.dof,) or not np.isfinite(goal).all():
+        raise ValueError(f"goal must be {robot.dof} finite joint positions, got shape {goal.shape}")
+    if robot.outside_limits(goal) >= 0:
+        raise ValueError(f"goal: joint {robot.outside_limits(goal) + 1} is outside its limits")
     goal_pose = robot.camera(goal)
     target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, ARM_DESIRED_DEPTH)))
-    start = solve_joints(robot, goal_pose @ pose(t=GANTRY_GENERAL_MOTION_T, r=GANTRY_GENERAL_MOTION_R), goal)
+    start = _start_joints(robot, goal_pose @ pose(t=GANTRY_GENERAL_MOTION_T, r=GANTRY_GENERAL_MOTION_R), goal)
     return Case(f"{name}_general_motion", f"general motion with a camera on the {name} arm (URDF, Pinocchio)",
                 CameraModel.afma6(), target, start, goal, robot, 15.0)
 

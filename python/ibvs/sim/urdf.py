@@ -1,7 +1,10 @@
-"""Any arm in the simulator, from its URDF, with Pinocchio (pip install "ibvs[robots]").
+"""Any arm in the simulator, from its URDF, with Pinocchio (pip install ".[robots]" from the ibvs
+repository root).
 
     robot = ibvs.sim.UrdfRobot(urdf_path, "tool0", eMc)
+    robot = ibvs.sim.UrdfRobot.example("panda", eMc)        # an arm of example-robot-data
     ibvs.sim.run(servo, camera, target, q_start, q_goal, robot=robot)
+    q = ibvs.sim.solve_ik(robot, camera_pose, q0).q        # joints for a camera pose (ibvs.sim.ik)
 
 Frames: world = the URDF's root (the robot's base); e = the URDF frame `frame`
 (a link or fixed-joint frame: the flange or tool); c = the camera, eMc = e <- c
@@ -15,15 +18,19 @@ The episode loop (C++) calls kinematics(q) once per frame, holding the GIL.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import sys
 from pathlib import Path
+
 import numpy as np
 
 from .._core import sim as _sim
 
 __all__ = ["UrdfRobot", "example_robot_urdf", "EXAMPLE_ROBOTS"]
 
+#: Installs Pinocchio and example-robot-data (ibvs is on no package index: from a clone of its repository).
+INSTALL = 'pip install ".[robots]" from the ibvs repository root'
 #: URDFs of example-robot-data used by ibvs: name -> (path under its robots/ directory, flange frame).
 EXAMPLE_ROBOTS = {
     "panda": ("panda_description/urdf/panda.urdf", "panda_hand"),
@@ -35,13 +42,13 @@ def _pinocchio():
     try:
         import pinocchio
     except ImportError as e:  # pragma: no cover - the test extra installs it
-        raise ImportError('ibvs.sim.UrdfRobot needs Pinocchio: pip install "ibvs[robots]"') from e
+        raise ImportError(f"ibvs.sim.UrdfRobot needs Pinocchio: {INSTALL}") from e
     return pinocchio
 
 
 def example_robot_urdf(name: str) -> str:
     """Path of the URDF of one of EXAMPLE_ROBOTS ("panda", "ur5") installed by the example-robot-data
-    package (pip install "ibvs[robots]"). It installs its robots under <prefix>/share/example-robot-data/
+    package (pip install ".[robots]" from the ibvs repository root). It installs its robots under <prefix>/share/example-robot-data/
     robots with its Python path at <prefix>/lib/pythonX.Y/site-packages; this looks, as its own loader
     does, three levels above every entry of sys.path."""
     if not isinstance(name, str):
@@ -53,7 +60,7 @@ def example_robot_urdf(name: str) -> str:
         path = Path(p or os.getcwd()) / ".." / ".." / ".." / "share" / "example-robot-data" / "robots" / sub
         if path.is_file():
             return str(path.resolve())
-    raise FileNotFoundError(f'{sub} of example-robot-data not found: pip install "ibvs[robots]"')
+    raise FileNotFoundError(f"{sub} of example-robot-data not found: {INSTALL}")
 
 
 class UrdfRobot(_sim.Robot):
@@ -67,8 +74,9 @@ class UrdfRobot(_sim.Robot):
     q_min, q_max, qdot_max: None (the URDF's position and velocity limits) or (n,) limits
     overriding them (radians or metres per joint, and per second).
 
-    Pickles by its arguments (the Pinocchio model is rebuilt), so sweeps can send it to
-    worker processes.
+    UrdfRobot.example(name, eMc) builds one of EXAMPLE_ROBOTS. Pickles by its arguments (the
+    Pinocchio model is rebuilt; an example by its name, so a worker on another machine loads its own
+    copy of example-robot-data), so sweeps can send it to worker processes and Dask.
     """
 
     def __init__(
@@ -121,6 +129,7 @@ class UrdfRobot(_sim.Robot):
         mount = np.eye(4) if eMc is None else eMc
         super().__init__(lower, upper, speed, mount, jacobian_frame, float(damping), float(singular_region))
         self._args = (urdf_path, frame, eMc, jacobian_frame, damping, singular_region, q_min, q_max, qdot_max)
+        self.example_name = None  # set by example()
         self._pin = pin
         self.model = model
         self.data = model.createData()
@@ -136,9 +145,33 @@ class UrdfRobot(_sim.Robot):
         T = pin.updateFramePlacement(self.model, self.data, self.frame_id)
         return T.homogeneous, pin.getFrameJacobian(self.model, self.data, self.frame_id, self._reference)
 
+    @staticmethod
+    def example(name: str, eMc=None, jacobian_frame: str = "end_effector", damping: float = 0.0,
+                singular_region: float = 0.0, q_min=None, q_max=None, qdot_max=None) -> "UrdfRobot":
+        """One of EXAMPLE_ROBOTS ("panda": Franka Panda, 7 joints, camera frame panda_hand; "ur5":
+        Universal Robots UR5, 6 joints, tool0) from example-robot-data; the other arguments as UrdfRobot's."""
+        robot = UrdfRobot(example_robot_urdf(name), EXAMPLE_ROBOTS[name][1], eMc, jacobian_frame, damping,
+                          singular_region, q_min, q_max, qdot_max)
+        robot.example_name = name
+        return robot
+
+    def fingerprint(self) -> dict:
+        """What determines this robot's kinematics and limits, independent of where its URDF lies: the
+        example's name or a digest of the URDF's content, the frame, eMc and the other arguments (the
+        config hash of a sweep over it: ibvs.study.scenario.Scenario.key)."""
+        path, frame, eMc, *rest = self._args
+        names = ("jacobian_frame", "damping", "singular_region", "q_min", "q_max", "qdot_max")
+        urdf = {"example": self.example_name} if self.example_name else \
+            {"urdf_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}
+        as_list = (lambda x: None if x is None else np.asarray(x, dtype=float).tolist())
+        return {**urdf, "frame": frame, "eMc": as_list(eMc),
+                **{k: (as_list(v) if k.startswith("q") else v) for k, v in zip(names, rest)}}
+
     def __reduce__(self):
+        if self.example_name:
+            return (UrdfRobot.example, (self.example_name, *self._args[2:]))
         return (UrdfRobot, self._args)
 
     def __repr__(self) -> str:
-        return f"UrdfRobot({Path(self._args[0]).name!r}, {self.frame_name!r}, {self.dof} joints)"
-
+        what = self.example_name or Path(self._args[0]).name
+        return f"UrdfRobot({what!r}, {self.frame_name!r}, {self.dof} joints)"
