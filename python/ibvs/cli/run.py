@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from . import args as a
+from . import arm
 
 
 def add_parser(sub) -> None:
@@ -17,7 +18,9 @@ def add_parser(sub) -> None:
     one = sub.add_parser("run", help="simulate one episode and print its status and metrics",
                          description="Simulate one episode and print its status and metrics; draw it (--plot) or "
                                      "animate it (--animate).")
-    one.add_argument("--world", choices=sorted(CASES), default="free", help="free-flying camera or gantry")
+    one.add_argument("--world", choices=sorted(CASES), default="free",
+                     help="free-flying camera, the gantry, or an arm (--robot)")
+    arm.add_options(one)
     one.add_argument("--scheme", choices=list(SCHEMES), default="polar",
                      help="; ".join(f"{k}: {v}" for k, v in TITLES.items() if k in SCHEMES) + " (default polar)")
     one.add_argument("--case", choices=cases,
@@ -54,6 +57,7 @@ def command(args) -> int:
     from ..study import reproduce
 
     prog = "ibvs run"
+    arm.check(prog, args)
     case = args.case or reproduce.DEFAULT_CASE[args.world]
     if case not in reproduce.CASES[args.world]:
         a.fail(prog, f"argument --case: {case} is not available for --world {args.world}; "
@@ -63,6 +67,8 @@ def command(args) -> int:
         if case != "z-rotation":
             a.fail(prog, "argument --rotation-deg: only with --case z-rotation")
         custom = sim.cases.z_rotation(math.radians(args.rotation_deg))
+    if args.world == "arm":
+        custom = arm.case(prog, args)
     c = custom or reproduce.make_case(args.world, case)
     duration = args.duration if args.duration is not None else reproduce.DURATION[args.world]
     frames = round(duration * c.camera.fps)

@@ -143,6 +143,7 @@ def command(args) -> int:
     table = sw.aggregate(rows, bins=sw.bins_for(rows, width=args.bin_width))
     print(sw.format_table(table))
     print(f"\n{len(rows)} episodes in {args.out}")
+    print(sw.format_starts(rows))
     if args.figure:
         sw.figure(table, args.figure)
         print(f"figure {args.figure}")

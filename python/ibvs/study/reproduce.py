@@ -41,9 +41,11 @@ CASES = {
         "general": sim.cases.general_motion,
     },
     "gantry": {"general": sim.cases.gantry_general_motion, "joint-limit": sim.cases.gantry_joint_limit},
+    # the Panda by default; `ibvs run --world arm --robot ...` builds the case of another arm
+    "arm": {"general": sim.cases.arm_general_motion},
 }
 #: The case each world runs unless told otherwise.
-DEFAULT_CASE = {"free": "z-rotation", "gantry": "general"}
+DEFAULT_CASE = {"free": "z-rotation", "gantry": "general", "arm": "general"}
 #: The cases `ibvs reproduce` runs (the paper's).
 PAPER_CASES = {"free": ("x-translation", "z-rotation", "general"), "gantry": ("general",)}
 #: Paper figure each (world, case, scheme) reproduces.
@@ -58,10 +60,10 @@ FIGURES = {
 }
 #: Control settings per world: gain (1/s), episode length (s), the depth the controller is
 #: given (exact in simulation as in Section III-A; from a pose estimate on the gantry as in
-#: Section III-B) and the error norm under which a run counts as converged.
-GAIN = {"free": 1.0, "gantry": 2.0}
-DURATION = {"free": 30.0, "gantry": 15.0}
-DEPTH = {"free": "exact", "gantry": "pose"}
+#: Section III-B, and on an arm) and the error norm under which a run counts as converged.
+GAIN = {"free": 1.0, "gantry": 2.0, "arm": 1.0}
+DURATION = {"free": 30.0, "gantry": 15.0, "arm": 15.0}
+DEPTH = {"free": "exact", "gantry": "pose", "arm": "pose"}
 TOLERANCE = 1e-5
 
 
@@ -151,7 +153,7 @@ def summarise(world: str, case: str, scheme: str, result, angle_wrap: str = "con
         float(np.linalg.norm(tw[:, :3], axis=1).max()) if len(tw) else float("nan"),
         float(np.linalg.norm(tw[:, 3:], axis=1).max()) if len(tw) else float("nan"),
         1e3 * m.final_translation_error, math.degrees(m.final_rotation_error),
-        f"q{s.joint + 1}" if s.outcome == "joint_limit" else "no" if world == "gantry" else "",
+        f"q{s.joint + 1}" if s.outcome == "joint_limit" else "no" if world in ("gantry", "arm") else "",
         FIGURES.get((world, case, scheme), ""), wrap_label(scheme, angle_wrap),
     )
 

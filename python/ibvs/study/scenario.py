@@ -37,6 +37,7 @@ import dataclasses
 import functools
 import hashlib
 import importlib
+import inspect
 import json
 import math
 import os
@@ -77,9 +78,38 @@ def _gantry(q_min=None, q_max=None, qdot_max=None):
     return g if q_min is None and q_max is None and qdot_max is None else g.with_limits(q_min, q_max, qdot_max)
 
 
-#: Robot kinds a scenario file may name ([robot] kind = "..."): kind -> factory(**other keys).
-#: Robots that ibvs.sim.run accepts register here (e.g. a URDF robot: urdf path, frame, eMc).
-ROBOTS: dict[str, Callable[..., Any]] = {"gantry": _gantry}
+def _urdf(urdf=None, example=None, frame=None, eMc=None, q_min=None, q_max=None, qdot_max=None, damping=0.0,
+          singular_region=0.0):
+    """An arm from its URDF (ibvs.sim.UrdfRobot, Pinocchio): `urdf` (a path) and `frame` (where the camera
+    is mounted), or `example` ("panda" or "ur5" of example-robot-data; frame: its flange unless given);
+    eMc: flange <- camera (4x4; identity if absent); limits and the JointMapping's damping as UrdfRobot's."""
+    if (urdf is None) == (example is None):
+        raise ValueError("give urdf (a URDF file) or example (" + " or ".join(map(repr, sim.cases.ARMS)) +
+                         "), one of them")
+    options = dict(eMc=eMc, damping=damping, singular_region=singular_region, q_min=q_min, q_max=q_max,
+                   qdot_max=qdot_max)
+    if example is not None:
+        if not isinstance(example, str) or example not in sim.cases.ARMS:
+            raise ValueError(f"example must be one of {', '.join(map(repr, sim.cases.ARMS))}, got {example!r}")
+        if frame is not None and frame != sim.urdf.EXAMPLE_ROBOTS[example][1]:
+            return sim.UrdfRobot(sim.example_robot_urdf(example), frame, **options)
+        return sim.UrdfRobot.example(example, **options)
+    if frame is None:
+        raise ValueError("frame: the URDF frame the camera is mounted on (e.g. tool0) is required with urdf")
+    if not isinstance(urdf, (str, os.PathLike)):
+        raise ValueError(f"urdf must be a path, got {type(urdf).__name__}")
+    if not Path(urdf).is_file():
+        raise ValueError(f"urdf: no such file: {urdf}")
+    return sim.UrdfRobot(urdf, frame, **options)
+
+
+_urdf.path_keys = ("urdf",)  # resolved against the scenario file's directory
+_urdf.pose_keys = ("eMc",)  # { t = [...], r = [...] } or r_deg, as every pose of a scenario file
+
+#: Robot kinds a scenario file may name ([robot] kind = "..."): kind -> factory(**other keys). The
+#: factory's parameters are the table's keys; its attributes path_keys (paths relative to the file) and
+#: pose_keys (pose tables) say how some are read. Register any robot ibvs.sim.run accepts here.
+ROBOTS: dict[str, Callable[..., Any]] = {"gantry": _gantry, "urdf": _urdf}
 
 
 # --------------------------------------------------------------------------- the scenario
@@ -116,6 +146,8 @@ def _canonical(x):
         return [_canonical(v) for v in x]
     if isinstance(x, (types.FunctionType, types.BuiltinFunctionType, types.MethodType, functools.partial, type)):
         return _callable_name(x)
+    if isinstance(x, sim.UrdfRobot):  # its URDF's content, not where it lies; not its Pinocchio objects
+        return ["UrdfRobot", _canonical(x.fingerprint())]
     try:  # native objects (Camera, Target, Gantry) through their pickle state
         state = x.__getstate__()
     except (AttributeError, TypeError):
@@ -218,15 +250,22 @@ class Scenario:
     # -- geometry
 
     def goal_joints(self) -> Optional[np.ndarray]:
-        """The robot's goal joint positions (None without a robot)."""
+        """The robot's goal joint positions (None without a robot); a goal pose is solved once by
+        ibvs.sim.solve_ik from the middle of the joint ranges."""
         if self.robot is None:
             return None
-        g = np.asarray(self.goal, dtype=float)
-        if g.shape == (4, 4):
-            return _goal_joints(self.robot, g)
-        if g.ndim != 1 or not np.isfinite(g).all():
-            raise ValueError(f"goal: joint positions or a 4x4 pose, got shape {g.shape}")
-        return g
+        if "_goal_q" not in self.__dict__:  # a cache: the frozen dataclass's fields stay as given
+            g = np.asarray(self.goal, dtype=float)
+            if g.shape == (4, 4):
+                q = _goal_joints(self.robot, g)
+            elif g.shape != (self.robot.dof,) or not np.isfinite(g).all():
+                raise ValueError(f"goal: {self.robot.dof} finite joint positions or a 4x4 pose, got shape {g.shape}")
+            elif self.robot.outside_limits(g) >= 0:
+                raise ValueError(f"goal: joint {self.robot.outside_limits(g) + 1} is outside its limits")
+            else:
+                q = g
+            object.__setattr__(self, "_goal_q", q)
+        return self.__dict__["_goal_q"]
 
     def goal_pose(self) -> np.ndarray:
         """The camera's goal pose (4x4, world <- camera)."""
@@ -259,16 +298,20 @@ class Scenario:
 
     def start(self, p: Mapping) -> Any:
         """The start (pose, or joints with a robot) of parameters p, or None when the target is not
-        entirely in view there or the robot cannot reach it."""
+        entirely in view there or the robot cannot reach it (start_outcome says which)."""
+        return self.start_outcome(p)[0]
+
+    def start_outcome(self, p: Mapping) -> tuple:
+        """(start, None), or (None, why): "invalid_start" when the target is not entirely in view at the
+        start pose, "unreachable" when ibvs.sim.solve_ik (from the goal joints, then its restarts) finds
+        no joints within the robot's limits that put the camera there."""
         start_pose = self.goal_pose() @ offset(p)
         if not _in_view(self.camera, _in_camera(self.target, start_pose)):
-            return None
+            return None, "invalid_start"
         if self.robot is None:
-            return start_pose
-        try:
-            return sim.cases.solve_joints(self.robot, start_pose, self.goal_joints())
-        except ValueError:
-            return None
+            return start_pose, None
+        r = sim.solve_ik(self.robot, start_pose, self.goal_joints())
+        return (r.q, None) if r.converged else (None, "unreachable")
 
     def goal_for_run(self):
         return self.goal_joints() if self.robot is not None else self.goal_pose()
@@ -327,12 +370,11 @@ def _in_view(camera, P: np.ndarray) -> bool:
 
 
 def _goal_joints(robot, pose: np.ndarray) -> np.ndarray:
-    """Joint positions placing the camera at `pose`, by inverse kinematics from mid-range."""
-    q0 = (np.asarray(robot.q_min, float) + np.asarray(robot.q_max, float)) / 2
-    try:
-        return sim.cases.solve_joints(robot, pose, q0)
-    except ValueError as e:
-        raise ValueError(f"goal: the robot cannot reach the goal pose ({e})") from None
+    """Joint positions placing the camera at `pose`, by ibvs.sim.solve_ik from mid-range."""
+    r = sim.solve_ik(robot, pose)
+    if not r.converged:
+        raise ValueError(f"goal: the robot cannot reach the goal pose ({r.message})")
+    return r.q
 
 
 # --------------------------------------------------------------------------- built-in worlds
@@ -440,6 +482,31 @@ def _import_callable(spec: str, where: str):
     return f
 
 
+def _robot(table, path: Path, where: str):
+    """The robot of a [robot] table: ROBOTS[kind](**the other keys), its path keys relative to the file."""
+    where = f"{where} [robot]"
+    if not isinstance(table, Mapping):
+        raise ValueError(f"{where} must be a table with kind = {' or '.join(map(repr, ROBOTS))}")
+    r = dict(table)
+    kind = r.pop("kind", None)
+    if kind not in ROBOTS:
+        raise ValueError(f"{where}: kind must be one of {', '.join(ROBOTS)}, got {kind!r}")
+    factory = ROBOTS[kind]
+    _keys(r, ["kind", *inspect.signature(factory).parameters], where)
+    for k in getattr(factory, "path_keys", ()):
+        if k in r:
+            if not isinstance(r[k], str):
+                raise ValueError(f"{where}: {k} must be a path (a string), got {type(r[k]).__name__}")
+            r[k] = str(path.parent / r[k])  # an absolute path stays as it is
+    for k in getattr(factory, "pose_keys", ()):
+        if k in r:
+            r[k] = _pose_of(r[k], f"{where} {k}")
+    try:
+        return factory(**r)
+    except (ImportError, TypeError, ValueError, FileNotFoundError) as e:  # ImportError: Pinocchio is missing
+        raise ValueError(f"{where}: {e}") from None
+
+
 #: Keys of a scenario file's [sweep] table: defaults for the sweep (command-line options win).
 SWEEP_KEYS = ("episodes", "seed", "schemes")
 
@@ -456,22 +523,17 @@ def load(path) -> tuple[Scenario, dict]:
             raise ValueError(f"{where}: missing [{section}] table")
     camera = _construct(sim.Camera, doc["camera"], f"{where} [camera]")
     target = _construct(sim.Target, doc["target"], f"{where} [target]", pose_keys=("pose",))
-    robot = None
-    if "robot" in doc:
-        r = dict(doc["robot"])
-        kind = r.pop("kind", None)
-        if kind not in ROBOTS:
-            raise ValueError(f"{where} [robot]: kind must be one of {', '.join(ROBOTS)}, got {kind!r}")
-        try:
-            robot = ROBOTS[kind](**r)
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"{where} [robot]: {e}") from None
+    robot = _robot(doc["robot"], path, where) if "robot" in doc else None
     g = doc["goal"]
     if "joints" in g:
         _keys(g, ("joints",), f"{where} [goal]")
         if robot is None:
             raise ValueError(f"{where} [goal]: joints need a [robot]")
-        goal = np.asarray(g["joints"], dtype=float)
+        try:
+            goal = np.asarray(g["joints"], dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{where} [goal]: joints must be a list of numbers (radians or metres), got "
+                             f"{g['joints']!r}") from None
     else:
         goal = _pose_of(g, f"{where} [goal]")
     start = dict(doc.get("start", {}))

@@ -33,7 +33,11 @@ or functools.partial of one). The scenario's angle_wrap ("consistent", the defau
 
 Modules: spec (SweepSpec, samples, episode ids), episodes (one episode, a worker's batch), rows
 (the CSV), progress, local (the worker pool), cluster (Dask), runner (sweep, resolve) and tables
-(aggregate, format_table, figure); this package re-exports their public names.
+(aggregate, format_table, figure, starts); this package re-exports their public names.
+
+Starts that run no episode are rows too, never dropped: outcome "invalid_start" (the target not
+entirely in view at the start) or "unreachable" (a robot's start that ibvs.sim.solve_ik cannot reach
+within the joint limits); the tables count them apart (NOT_RUN, starts(), format_starts()).
 """
 
 from __future__ import annotations
@@ -45,7 +49,7 @@ from .episodes import run_episode
 from .rows import COLUMNS, load
 from .runner import resolve, sweep
 from .spec import MAX_EPISODES, MAX_JOBS, SweepSpec, episode_id, samples
-from .tables import ROTATION_BINS, aggregate, bins_for, figure, format_table, outcomes
+from .tables import NOT_RUN, ROTATION_BINS, aggregate, bins_for, figure, format_starts, format_table, outcomes, starts
 
 __all__ = [
     "COLUMNS",
@@ -54,6 +58,7 @@ __all__ = [
     "DEPTH_MODES",
     "MAX_EPISODES",
     "MAX_JOBS",
+    "NOT_RUN",
     "PARAMETERS",
     "ROTATION_BINS",
     "SCHEMES",
@@ -63,6 +68,7 @@ __all__ = [
     "bins_for",
     "episode_id",
     "figure",
+    "format_starts",
     "format_table",
     "load",
     "outcomes",
@@ -70,5 +76,6 @@ __all__ = [
     "resolve",
     "run_episode",
     "samples",
+    "starts",
     "sweep",
 ]

@@ -25,9 +25,9 @@ def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict]
     row = {"id": episode_id(config, index, scheme), "config": config, "index": int(index), "scenario": setup.name,
            "scheme": scheme, **{k: (int(p[k]) if k in INT_COLUMNS else float(p[k])) for k in PARAMETERS},
            "depth": setup.depth, "angle_wrap": setup.angle_wrap}
-    start = setup.start(p)
-    if start is None:
-        return {**row, "outcome": "invalid_start", "frame": -1, "point": -1, "joint": -1, "frames_to_converge": -1,
+    start, why = setup.start_outcome(p)
+    if start is None:  # no episode: "invalid_start" (target not in view) or "unreachable" (by the robot)
+        return {**row, "outcome": why, "frame": -1, "point": -1, "joint": -1, "frames_to_converge": -1,
                 **{k: math.nan for k in COLUMNS[COLUMNS.index("time_to_converge"):]}}
     servo = schemes.make(factory or scheme, setup.gain, len(setup.target))
     if isinstance(servo, ibvs.Servo):

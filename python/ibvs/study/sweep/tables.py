@@ -17,13 +17,18 @@ from ..scenario import PARAMETERS
 ROTATION_BINS = tuple(range(0, 181, 30))
 
 
+#: Outcomes of starts that ran no episode, counted apart from the outcome columns: the target not
+#: entirely in view at the start, and a start the robot cannot reach (ibvs.sim.solve_ik).
+NOT_RUN = ("invalid_start", "unreachable")
+
+
 def outcomes(rows: Iterable[dict] = ()) -> list[str]:
     """The outcome columns of a table: ibvs.sim.OUTCOMES, then any other outcome in rows (but
-    invalid_start, which is counted apart)."""
+    those of NOT_RUN, which are counted apart)."""
     names = list(sim.OUTCOMES)
     for r in rows:
         o = r["outcome"]
-        if o not in names and o != "invalid_start":
+        if o not in names and o not in NOT_RUN:
             names.append(o)
     return names
 
@@ -57,7 +62,8 @@ def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[
     outcomes(rows): converged, left_image, ..., timeout, and any added later), time (median
     time to converge, s, converged only), the medians of retreat (camera retreat, m), path
     (camera path length, m), peak_linear_speed (m/s) and peak_angular_speed (rad/s) over the
-    valid episodes, and invalid (starts skipped: target not in view or unreachable). Every
+    valid episodes, invalid (starts skipped: target not in view) and unreachable (starts skipped:
+    no joints within the robot's limits put the camera there). Every
     row of the table also holds "outcomes", the list of outcome keys. Deterministic: rows are
     taken in (index, scheme) order."""
     if by not in PARAMETERS:
@@ -82,7 +88,7 @@ def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[
     for s in schemes:
         for k in range(len(edges) - 1):
             g = groups.get((s, k), [])
-            valid = [r for r in g if r["outcome"] != "invalid_start"]
+            valid = [r for r in g if r["outcome"] not in NOT_RUN]
             n = len(valid)
             t = {"scheme": s, "bin": f"[{edges[k]:g}, {edges[k + 1]:g}{']' if k == len(edges) - 2 else ')'}",
                  "lo": edges[k], "hi": edges[k + 1], "n": n}
@@ -92,15 +98,38 @@ def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[
             for key, col in (("retreat", "camera_retreat"), ("path", "path_length"),
                              ("peak_linear_speed", "peak_linear_speed"), ("peak_angular_speed", "peak_angular_speed")):
                 t[key] = _median(r[col] for r in valid)
-            t["invalid"] = len(g) - n
+            t["invalid"] = sum(r["outcome"] == "invalid_start" for r in g)
+            t["unreachable"] = sum(r["outcome"] == "unreachable" for r in g)
             t["outcomes"] = names
             table.append(t)
     return table
 
 
+def starts(rows: Iterable[dict]) -> dict:
+    """How many start set-ups (episode indices) the rows hold: "starts" in all, "run" (episodes ran),
+    and one count per outcome of NOT_RUN ("invalid_start", "unreachable"). The start, not the rows:
+    every scheme of an index shares it."""
+    by_index = {}
+    for r in rows:
+        by_index.setdefault((r["config"], r["index"]), r["outcome"] if r["outcome"] in NOT_RUN else "run")
+    counts = {"starts": len(by_index), "run": 0, **{o: 0 for o in NOT_RUN}}
+    for what in by_index.values():
+        counts[what] += 1
+    return counts
+
+
+def format_starts(rows: Iterable[dict]) -> str:
+    """One line of starts(rows): how many ran, how many the robot could not reach, how many had the
+    target out of view."""
+    c = starts(rows)
+    return (f"{c['starts']} starts: {c['run']} run, {c['unreachable']} unreachable by the robot (outcome "
+            f"unreachable: no joints within its limits put the camera there), {c['invalid_start']} with the "
+            f"target not entirely in view (outcome invalid_start)")
+
+
 _METRIC_COLUMNS = (("time", "time (s)"), ("retreat", "retreat (m)"), ("path", "path (m)"),
                    ("peak_linear_speed", "peak ‖T‖ (m/s)"), ("peak_angular_speed", "peak ‖ω‖ (rad/s)"),
-                   ("invalid", "invalid starts"))
+                   ("invalid", "invalid starts"), ("unreachable", "unreachable starts"))
 
 
 def format_table(table: list[dict], by: str = "rz_deg") -> str:
