@@ -241,6 +241,8 @@ class Scenario:
         if hi_latency >= self.duration * self.camera.fps:
             raise ValueError(f"ranges: latency {hi_latency} frames is not shorter than the episode "
                              f"({self.duration * self.camera.fps:g} frames)")
+        if self.robot is not None:
+            self.goal_joints()  # checked, or a goal pose reached: a ValueError naming the goal otherwise
         goal = self.goal_pose()
         P = _in_camera(self.target, goal)
         if not _in_view(self.camera, P):
@@ -364,7 +366,7 @@ def _in_view(camera, P: np.ndarray) -> bool:
     """Every point in front of the camera and on its sensor."""
     if np.any(P[:, 2] <= 1e-3):
         return False
-    m = np.asarray(camera.project(P[:, :2] / P[:, 2:]))
+    m = np.asarray(camera.project(P[:, :2] / P[:, 2:], invalid="nan"))  # NaN beyond the model's radius
     u0, u1, v0, v1 = camera.bounds
     return bool(np.all((m[:, 0] >= u0) & (m[:, 0] <= u1) & (m[:, 1] >= v0) & (m[:, 1] <= v1)))
 
