@@ -171,10 +171,9 @@ def test_dask_worker_processes_rebuild_the_arm(example):
     scenario = example[0].replace(duration=2.0)
     grid = {"tz": GRID["tz"][:3]}
     local = sw.sweep(None, scenario=scenario, grid=grid, schemes=["cartesian"], jobs=1, progress=False)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as c:
-        with distributed.Client(c) as client:
-            rows = sw.sweep(None, scenario=scenario, grid=grid, schemes=["cartesian"], scheduler=client,
-                            progress=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+            distributed.Client(c) as client:
+        rows = sw.sweep(None, scenario=scenario, grid=grid, schemes=["cartesian"], scheduler=client, progress=False)
     assert repr(rows) == repr(local) and rows[0]["outcome"] == "unreachable"
 
 

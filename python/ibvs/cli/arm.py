@@ -53,11 +53,12 @@ def add_options(parser) -> None:
                         metavar="TX,TY,TZ,RX,RY,RZ",
                         help="the camera's pose on that frame, frame <- camera: translation (m) and rotation "
                              "Rx Ry Rz (rad) (default for panda / ur5: 5 cm off the flange axis, tilted; for a "
-                             "URDF: the frame itself)")
+                             "URDF: the frame itself; write --emc=-0.05,... when the first number is negative)")
     parser.add_argument("--goal-joints", type=numbers(None, "joint positions Q1,Q2,... (rad or m)", 1e3),
                         metavar="Q1,Q2,...",
                         help="the arm's joints at the goal (default for panda / ur5: a posture well inside the "
-                             "limits; for a URDF: the middle of every joint's range)")
+                             "limits; for a URDF: the middle of every joint's range; --goal-joints=-1,... when the "
+                             "first is negative)")
 
 
 def check(prog: str, args) -> None:

@@ -120,7 +120,8 @@ def _check(robot, camera_pose, q0, tolerance, max_iterations, restarts, seed, ma
     if T.shape != (4, 4) or not np.isfinite(T).all():
         raise ValueError(f"camera_pose must be a finite 4x4 pose (world <- camera), got shape {T.shape}")
     R = T[:3, :3]
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0 or np.any(T[3] != (0, 0, 0, 1)):
+    if np.abs(R).max() > 1 + 1e-6 or np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0 \
+            or np.any(T[3] != (0, 0, 0, 1)):
         raise ValueError("camera_pose must be a rigid transform: an orthonormal rotation (det +1) and last row "
                          "(0, 0, 0, 1)")
     if np.abs(T[:3, 3]).max() > MAX_TRANSLATION:

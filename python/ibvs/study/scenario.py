@@ -1,8 +1,8 @@
 """ibvs.study.scenario: the set-up a sweep runs, from Python or from a TOML scenario file.
 
 A Scenario is a camera, a target (any points, planar or not), the goal, a robot (None for a
-free-flying camera, the gantry, or any robot ibvs.sim.run accepts), a distribution of start
-set-ups around the goal and the control settings:
+free-flying camera, the gantry, an arm from its URDF: ibvs.sim.UrdfRobot, or any robot ibvs.sim.run
+accepts), a distribution of start set-ups around the goal and the control settings:
 
     import numpy as np
     from ibvs import sim
@@ -29,6 +29,10 @@ instead: translation(rng) -> (tx, ty, tz) and rotation(rng) -> a 3x3 rotation or
 radians, given a numpy Generator seeded by (seed, index); module-level functions, so that
 process pools and Dask can pickle them. The rows record the resulting rz_deg, tilt_deg,
 tilt_dir_deg, tx, ty, tz in both cases.
+
+With a robot, the goal is its joints or a camera pose, and each start is the camera's pose as above,
+turned into joints by ibvs.sim.solve_ik from the goal joints; a start it cannot reach within the joint
+limits runs no episode (start_outcome says "unreachable"; the sweep's rows keep it).
 """
 
 from __future__ import annotations
@@ -162,7 +166,8 @@ class Scenario:
     camera, target: an ibvs.sim.Camera and an ibvs.sim.Target (any number of points >= 1,
         planar or not; depth="pose" needs a planar one).
     goal: the camera's goal pose (4x4, world <- camera), or with a robot its joint positions.
-    robot: None (free-flying camera), an ibvs.sim.Gantry, or any robot ibvs.sim.run accepts.
+    robot: None (free-flying camera), an ibvs.sim.Gantry, an ibvs.sim.UrdfRobot, or any robot
+        ibvs.sim.run accepts (an ibvs.sim.Robot).
     ranges: {parameter: (lo, hi)} of the start distribution (PARAMETERS).
     translation, rotation: callables of a numpy Generator replacing the tx/ty/tz and the
         rz_deg/tilt_deg/tilt_dir_deg ranges.
