@@ -19,6 +19,7 @@ import ibvs.study.sweep as sw
 from ibvs import sim
 from ibvs.cli.main import main
 from ibvs.study.scenario import Scenario, load, offset
+from ibvs.study.schemes import SCHEMES
 
 pytest.importorskip("pinocchio")
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "scenario_arm.toml"
@@ -191,6 +192,22 @@ def test_run_an_example_arm(robot, capsys):
     assert main(["run", "--world", "arm", "--robot", robot, "--scheme", "stacked"]) == 0
     out = capsys.readouterr().out
     assert f"camera on the {robot} arm" in out and "converged" in out and "joint limit        no" in out
+
+
+def test_run_every_scheme_and_option_on_an_arm(capsys):
+    """Every scheme, and the depth, noise, latency, gain, tolerance, angle-wrap and vision options, on the Panda
+    (1 s episodes: what matters here is that the arm takes every option of `ibvs run`)."""
+    for scheme in SCHEMES:
+        assert main(["run", "--world", "arm", "--scheme", scheme, "--duration", "1"]) in (0, 1)
+        assert "status" in capsys.readouterr().out
+    assert main(["run", "--world", "arm", "--robot", "ur5", "--scheme", "polar", "--duration", "1", "--depth", "estimated",
+                 "--noise", "0.5", "--latency", "2", "--gain", "0.5", "--tolerance", "1e-3", "--angle-wrap",
+                 "per_point", "--seed", "3"]) in (0, 1)
+    out = capsys.readouterr().out
+    assert "camera on the ur5 arm" in out and "per-point wrap" in out
+    pytest.importorskip("cv2")
+    assert main(["run", "--world", "arm", "--scheme", "cartesian", "--duration", "1", "--vision", "dots"]) in (0, 1)
+    assert "status" in capsys.readouterr().out
 
 
 def test_run_an_arm_from_its_urdf_with_plot_and_animation(tmp_path, capsys):

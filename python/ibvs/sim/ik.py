@@ -29,10 +29,11 @@ Joint limits are respected by rejection: the joints returned always lie within [
 pose the robot reaches only beyond a limit is reported as not converged (with the residual of the best
 joints within the limits), never answered with joints beyond one.
 
-Measured (2 cores, Python 3.11, Pinocchio 3): from poses of random joints within the limits (300 per
-arm, q0 = the middle of the ranges), the Panda converges in 300 of 300 (median 17 ms), the UR5 in 299 of
-300 (median 44 ms; all 300 with restarts=40); the result matches the pose to about 1e-13. A pose no
-joints reach costs every restart: about 0.2-0.4 s.
+Measured (2 cores, Python 3.11, Pinocchio 4.1, the defaults): from the poses of 300 random joint vectors
+within the limits per arm, q0 = the middle of the ranges, the Panda converges for 300 (median 14 ms), the
+UR5 for 299 (median 48 ms; all 300 with restarts=40), FK(IK(T)) equal to T within 1e-13. A camera offset
+of up to 5 cm and 0.2 rad from a goal, started at the goal joints: one attempt, about 2 ms. A pose no
+joints reach costs every restart: about 0.2 s.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ import numpy as np
 
 from .._core import sim as _sim
 
-__all__ = ["IKResult", "solve_ik", "solve_joints"]
+__all__ = ["IKResult", "MAX_TRANSLATION", "rotation_vector", "solve_ik", "solve_joints"]
 
 #: Newton stops once the error norm (m and rad) is below this: round-off level for poses of metres.
 _EXACT = 1e-13
