@@ -491,7 +491,7 @@ void bench_floor(const std::string& kind, const Options& o, const Frames& fr) {
     });
   }
   {
-    Result& r = add("components", "Eigen fixed-size JacobiSVD step", kind, NP, F::M, "JacobiSVD", o.damping, 0);
+    Result& r = add("components", "SVD step: J, damped_pinv() (ViSP-like)", kind, NP, F::M, "JacobiSVD", o.damping, 0);
     time_case(r, o, [&](long i) {
       const int k = static_cast<int>(i & (Frames::count - 1));
       keep(F::step_svd(uv[k], z[k], uvd[k], o.damping, o.gain));
@@ -937,18 +937,18 @@ void print_header(std::FILE* f, const char* title) {
                "route");
 }
 
-/// The ViSP stand-in ratio of one N = 4 layout: the fixed-size Eigen JacobiSVD
-/// step (an SVD of J per frame, as vpServo's pseudoinverse) over the default
-/// Servo::update, medians of the same run.
+/// The ViSP stand-in ratio of one N = 4 layout: the SVD step (a JacobiSVD of J
+/// on heap matrices per frame, as vpServo's vpMatrix::pseudoInverse) over the
+/// default Servo::update, medians of the same run.
 void print_visp_ratio(std::FILE* f, const std::string& kind) {
   const Result *svd = nullptr, *def = nullptr;
   for (const Result& r : g_results)
     if (r.section == "components" && r.layout == kind && r.n == 4) {
-      if (r.name == "Eigen fixed-size JacobiSVD step") svd = &r;
+      if (r.name == "SVD step: J, damped_pinv() (ViSP-like)") svd = &r;
       if (r.name == "Servo::update default (damping 0, diag.)") def = &r;
     }
   if (svd && def && def->median_us > 0)
-    std::fprintf(f, "  ViSP stand-in (ViSP not found): Eigen JacobiSVD step / default Servo::update, %s(4): %.1fx\n",
+    std::fprintf(f, "  ViSP stand-in (ViSP not found): SVD step / default Servo::update, %s(4): %.1fx\n",
                  kind.c_str(), svd->median_us / def->median_us);
 }
 

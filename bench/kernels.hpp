@@ -11,9 +11,6 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
-#include <Eigen/QR>
-#include <Eigen/SVD>
 
 #include <algorithm>
 #include <cmath>
@@ -153,17 +150,15 @@ struct Floor {
     return -gain * b;
   }
 
-  /// The "Eigen fixed-size, JacobiSVD damped" reference row.
+  /// The ViSP stand-in: the same J and e, then the damped pseudoinverse by an
+  /// SVD of J on heap matrices every frame, as vpServo's control law does
+  /// (vpMatrix::pseudoInverse): ibvs::damped_pinv (JacobiSVD<MatrixXd>).
   static Twist step_svd(const Pts& uv, const Eigen::Matrix<double, NP, 1>& z, const Pts& uvd, double lambda,
-                        double gain) noexcept {
+                        double gain) {
     Jac J;
     Eigen::Matrix<double, M, 1> e;
     assemble(uv, z, uvd, J, e);
-    Eigen::JacobiSVD<Jac> svd(J, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    const auto& s = svd.singularValues();
-    Twist y = svd.matrixU().template leftCols<6>().transpose() * e;
-    for (int i = 0; i < 6; ++i) y(i) *= s(i) / (s(i) * s(i) + lambda * lambda);
-    return -gain * (svd.matrixV() * y);
+    return -gain * (ibvs::damped_pinv(J, lambda) * e);
   }
 };
 
