@@ -144,7 +144,7 @@ class CameraModel:
         """K (3, 3) pixels; dist (k1, k2, p1, p2[, k3]) or with fisheye (k1, k2, k3, k4)."""
     @staticmethod
     def from_yaml(path: Union[str, os.PathLike[str]], fps: float = 60.0) -> CameraModel:
-        """ROS camera_info or OpenCV calibration file (needs ibvs[vision])."""
+        """ROS camera_info or OpenCV calibration file (needs the vision extra: pip install ".[vision]")."""
     @staticmethod
     def normalized(bounds: float = 0.3, fps: float = 60.0) -> CameraModel: ...
     @staticmethod

@@ -210,7 +210,7 @@ def gantry_joint_limit() -> Case:
                         GANTRY_JOINT_LIMIT_T, GANTRY_JOINT_LIMIT_R, 15.0)
 
 
-# Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install "ibvs[robots]"): name ->
+# Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install ".[robots]"): name ->
 # (goal joints, eMc). Goals: the Panda's "default" posture of its SRDF (its hand pointing down,
 # joint 4 bent), the UR5 elbow up with the tool pointing down (q3 = pi/2 keeps it off the elbow
 # singularity, q5 = -pi/2 off the wrist one); both well inside every joint limit, smallest
@@ -226,7 +226,7 @@ ARM_DESIRED_DEPTH = 0.5
 def arm_general_motion(name: str = "panda") -> Case:
     """General motion with a camera on an arm of example-robot-data ("panda": Franka Panda, 7 joints,
     flange frame panda_hand; "ur5": Universal Robots UR5, 6 joints, flange frame tool0), from its URDF
-    with Pinocchio (ibvs.sim.UrdfRobot; pip install "ibvs[robots]").
+    with Pinocchio (ibvs.sim.UrdfRobot; pip install ".[robots]" from the ibvs repository root).
 
     Goal: ARMS[name] joints, the 10 cm square target centred 0.5 m in front of the camera. Start: the
     camera moved by pose(GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R) in its own frame (as on the

@@ -1,4 +1,4 @@
-"""Any arm in the simulator, from its URDF, with Pinocchio (pip install "ibvs[robots]").
+"""Any arm in the simulator, from its URDF, with Pinocchio (pip install ".[robots]" from the repository root).
 
     robot = ibvs.sim.UrdfRobot(urdf_path, "tool0", eMc)
     ibvs.sim.run(servo, camera, target, q_start, q_goal, robot=robot)
@@ -35,13 +35,14 @@ def _pinocchio():
     try:
         import pinocchio
     except ImportError as e:  # pragma: no cover - the test extra installs it
-        raise ImportError('ibvs.sim.UrdfRobot needs Pinocchio: pip install "ibvs[robots]"') from e
+        raise ImportError('ibvs.sim.UrdfRobot needs Pinocchio: pip install ".[robots]" from the ibvs '
+                          'repository root') from e
     return pinocchio
 
 
 def example_robot_urdf(name: str) -> str:
     """Path of the URDF of one of EXAMPLE_ROBOTS ("panda", "ur5") installed by the example-robot-data
-    package (pip install "ibvs[robots]"). It installs its robots under <prefix>/share/example-robot-data/
+    package (pip install ".[robots]"). It installs its robots under <prefix>/share/example-robot-data/
     robots with its Python path at <prefix>/lib/pythonX.Y/site-packages; this looks, as its own loader
     does, three levels above every entry of sys.path."""
     if not isinstance(name, str):
@@ -53,7 +54,8 @@ def example_robot_urdf(name: str) -> str:
         path = Path(p or os.getcwd()) / ".." / ".." / ".." / "share" / "example-robot-data" / "robots" / sub
         if path.is_file():
             return str(path.resolve())
-    raise FileNotFoundError(f'{sub} of example-robot-data not found: pip install "ibvs[robots]"')
+    raise FileNotFoundError(f'{sub} of example-robot-data not found: pip install ".[robots]" from the ibvs '
+                            'repository root')
 
 
 class UrdfRobot(_sim.Robot):
