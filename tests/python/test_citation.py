@@ -29,7 +29,7 @@ def test_citation_cites_the_founding_paper():
     cff = (ROOT / "CITATION.cff").read_text()
     paper = cff[cff.index("preferred-citation:"):]
     assert 'title: "Combining Cartesian and polar coordinates in IBVS"' in paper
-    assert [m for m in re.findall(r"family-names: (\w+)", paper)] == ["Corke", "Spindler", "Chaumette"]
+    assert re.findall(r"family-names: (\w+)", paper) == ["Corke", "Spindler", "Chaumette"]
     assert "year: 2009" in paper and "start: 5962" in paper and "end: 5967" in paper
 
 
