@@ -41,6 +41,20 @@ def failures(group: list) -> str:
     return ", ".join(f"{n} {names.count(n)}" for n in sorted(set(names), key=names.count, reverse=True)) or "-"
 
 
+def share(group: list) -> str:
+    """Successful runs of a group, in %, or n/a for an empty group."""
+    return f"{100.0 * np.mean([success(r) for r in group]):.0f} %" if group else "n/a"
+
+
+def peaks(group: list) -> np.ndarray:
+    return np.array([r["peak_linear_speed"] for r in group])
+
+
+def spread(values: np.ndarray) -> str:
+    """median · max, or n/a for no values."""
+    return f"{np.median(values):.3g} · {values.max():.3g}" if len(values) else "n/a"
+
+
 def table(rows: dict) -> None:
     print("| scheme | noise | wrap | n near | success | failures | peak ‖T‖ median · max (m/s) "
           "| path median · max (m) | 10° away: n · success · peak ‖T‖ median · max | max ratio |")
@@ -51,14 +65,12 @@ def table(rows: dict) -> None:
             off = np.array([abs(r["rz_deg"] - 180.0) for r in rs])
             near = [r for r, d in zip(rs, off) if d <= 5.0]
             away = [r for r, d in zip(rs, off) if 8.0 <= d <= 12.0]
-            ok = lambda g: 100.0 * np.mean([success(r) for r in g])
-            pk = lambda g: np.array([r["peak_linear_speed"] for r in g])
+            pk_near, pk_away = peaks(near), peaks(away)
             path = np.array([r["path_length"] for r in near])
-            print(f"| {scheme} | {noise:g} | {wrap.replace('_', '-')} | {len(near)} | {ok(near):.0f} % | "
-                  f"{failures(near)} | "
-                  f"{np.median(pk(near)):.3g} · {pk(near).max():.3g} | {np.median(path):.3g} · {path.max():.3g} | "
-                  f"{len(away)} · {ok(away):.0f} % · {np.median(pk(away)):.3g} · {pk(away).max():.3g} | "
-                  f"{pk(near).max() / pk(away).max():.2g} |")
+            ratio = f"{pk_near.max() / pk_away.max():.2g}" if len(near) and len(away) else "n/a"
+            print(f"| {scheme} | {noise:g} | {wrap.replace('_', '-')} | {len(near)} | {share(near)} | "
+                  f"{failures(near)} | {spread(pk_near)} | {spread(path)} | "
+                  f"{len(away)} · {share(away)} · {spread(pk_away)} | {ratio} |")
 
 
 def figure(rows: dict, path: str) -> None:

@@ -60,15 +60,15 @@ BLOCKS = blocks()
 # Studies shrunk to a few episodes: [(text, replacement)]. The full run takes minutes (its time is written next to
 # the command) and its numbers are the text's; the test checks that the block runs.
 SHRINK = {
-    ("docs/beyond.md", "ibvs sweep --out sweep.csv"): [("--episodes 1000", "--episodes 4 --jobs 1")],
-    ("docs/beyond.md", "ibvs sweep --world gantry"): [("--episodes 1000", "--episodes 4 --jobs 1")],
+    ("docs/beyond.md", "ibvs sweep --out sweep.csv"): [("--episodes 1000", "--episodes 2 --jobs 1")],
+    ("docs/beyond.md", "ibvs sweep --world gantry"): [("--episodes 1000", "--episodes 2 --jobs 1")],
     ("docs/beyond.md", 'sw.sweep("depth_scale.csv"'): [("episodes=1000", "episodes=12, jobs=1")],
     ("docs/beyond.md", "docs/scripts/depth_modes.py"): [(" 100 ", " 3 ")],
     ("docs/beyond.md", "docs/scripts/halfturn.py"): [(" 1200 ", " 12 ")],
     ("docs/beyond.md", "docs/scripts/flips.py"): [(" 40 ", " 1 ")],
     ("docs/sweeps.md", "--out mine.csv --figure mine.png"): [
-        ("--figure mine.png\n", "--figure mine.png --episodes 3 --jobs 1\n"),
-        ("--episodes 1000", "--episodes 5 --jobs 1")],
+        ("--figure mine.png\n", "--figure mine.png --episodes 2 --jobs 1\n"),
+        ("--episodes 1000", "--episodes 3 --jobs 1")],
     ("docs/plots.md", 'frames = ibvs.viz.animate(result, "run.gif")'): [("duration=30.0", "duration=3.0")],
     ("docs/benchmarks.md", "--sections components --layout cartesian,stacked"): [("50000", "300"), ("20000", "300")],
 }
