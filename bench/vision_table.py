@@ -1,6 +1,6 @@
 """The paper's cases through images vs the point simulator: the table of docs/vision.md.
 
-    python bench/vision_table.py            (about a minute; needs ibvs[vision])
+    python bench/vision_table.py            (about a minute; needs the vision extra)
 
 Each case runs three times: exact projected points (the point simulator), dots found by
 ibvs.vision.DotTracker in rendered frames, and the AprilTag's corners found by cv2.aruco. Same

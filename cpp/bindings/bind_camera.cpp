@@ -199,7 +199,7 @@ distortion. width, height: image size in pixels.)")
 distortion_coefficients, image_width, image_height) or an OpenCV calibration file written by
 cv::FileStorage (YAML, XML or JSON; camera_matrix, distortion_coefficients, image_width,
 image_height, optional fisheye_model). Read with OpenCV's cv2.FileStorage: needs
-pip install "ibvs[vision]".)")
+pip install ".[vision]" from the ibvs repository root.)")
       .def_static(
           "normalized", [](py::handle bounds, py::handle fps) {
             return CameraModel::normalized(real(bounds, "bounds"), real(fps, "fps"));

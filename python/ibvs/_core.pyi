@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+"""The package version: CMakeLists.txt's project(ibvs VERSION ...)."""
 
 # Stub-only aliases (private: the module has no such names).
 _ArrayLike = npt.ArrayLike
@@ -62,23 +63,39 @@ class Status:
     def value(self) -> int: ...
 
 class Layout:
+    """Which feature blocks are stacked, in which row order.
+
+    Layout(blocks, n_points=None): blocks is a sequence of (point_index, "cartesian" | "polar" | "cylindrical");
+    block k fills rows 2k and 2k+1 of the feature vector and the Jacobian.
+    n_points defaults to the largest point index + 1.
+    """
+
     def __init__(
         self, blocks: Sequence[Tuple[int, Union[str, Representation]]], n_points: int | None = None
     ) -> None: ...
     @staticmethod
-    def cartesian(n: int) -> Layout: ...
+    def cartesian(n: int) -> Layout:
+        """Classic IBVS: (u_i, v_i) for each of n points, 2n x 6."""
     @staticmethod
-    def polar(n: int) -> Layout: ...
+    def polar(n: int) -> Layout:
+        """IBVS-P: (r_i, theta_i) for each of n points, 2n x 6."""
     @staticmethod
-    def stacked(n: int) -> Layout: ...
+    def stacked(n: int) -> Layout:
+        """Stacked hybrid: (u_i, v_i, r_i, theta_i) for each of n points, 4n x 6."""
     @staticmethod
-    def cylindrical(n: int) -> Layout: ...
+    def cylindrical(n: int) -> Layout:
+        """(r_i, r_i theta_i) for each of n points (Iwatsuki & Okiyama), 2n x 6. Servo error per point:
+        (r - r*, r wrap(theta - theta*)); rows bounded at r = 0, so no Cartesian fallback.
+        """
     @property
-    def rows(self) -> int: ...
+    def rows(self) -> int:
+        """M, the number of feature rows (2 per block)."""
     @property
-    def n_points(self) -> int: ...
+    def n_points(self) -> int:
+        """N, the number of image points."""
     @property
-    def blocks(self) -> list[tuple[int, str]]: ...
+    def blocks(self) -> list[tuple[int, str]]:
+        """List of (point_index, representation) in row order."""
     def __eq__(self, other: object) -> bool: ...
     def __hash__(self) -> int: ...
 
@@ -97,8 +114,10 @@ def feature_error(
 def damped_pinv(J: _ArrayLike, damping: float = 0.0) -> _FloatArray:
     """(6, M) pseudoinverse of J (M, 6)."""
 
-def singular_values(J: _ArrayLike) -> _FloatArray: ...
-def wrap_angle(angle: Union[float, _ArrayLike]) -> Union[float, _FloatArray]: ...
+def singular_values(J: _ArrayLike) -> _FloatArray:
+    """Singular values of J (M, 6), decreasing (entries at most 1e150 in magnitude)."""
+def wrap_angle(angle: Union[float, _ArrayLike]) -> Union[float, _FloatArray]:
+    """Wrap angles (radians, any finite value) into (-pi, pi]; exactly -pi maps to +pi."""
 def se3_exp(twist: _ArrayLike) -> _FloatArray:
     """(4, 4) rigid motion of a twist applied for unit time."""
 
@@ -107,11 +126,14 @@ class AdaptiveGain:
 
     def __init__(self, at_zero: float, at_infinity: float, slope_at_zero: float) -> None: ...
     @property
-    def at_zero(self) -> float: ...
+    def at_zero(self) -> float:
+        """g0: the gain at zero error norm (used near convergence), 1/s."""
     @property
-    def at_infinity(self) -> float: ...
+    def at_infinity(self) -> float:
+        """g_inf: the gain for large error norms, 1/s (0 < g_inf <= g0)."""
     @property
-    def slope_at_zero(self) -> float: ...
+    def slope_at_zero(self) -> float:
+        """g0': minus the slope of the gain at zero error, 1/s per unit of error norm."""
     def __call__(self, x: Union[float, _ArrayLike]) -> Union[float, _FloatArray]: ...
 
 class CameraModel:
@@ -136,7 +158,11 @@ class CameraModel:
     def from_visp(
         px: float, py: float, u0: float, v0: float, kud: float, kdu: float, width: float, height: float,
         fps: float = 60.0,
-    ) -> CameraModel: ...
+    ) -> CameraModel:
+        """ViSP's vpCameraParameters with distortion: focal lengths px, py and principal point u0, v0
+        (pixels); project with kud, normalize with kdu (separate calibrations: the round trip is close,
+        not exact). kud = kdu = 0 gives distortion "none".
+        """
     @staticmethod
     def from_opencv(
         K: _ArrayLike, dist: _ArrayLike | None, width: float, height: float, fisheye: bool = False, fps: float = 60.0
@@ -144,37 +170,49 @@ class CameraModel:
         """K (3, 3) pixels; dist (k1, k2, p1, p2[, k3]) or with fisheye (k1, k2, k3, k4)."""
     @staticmethod
     def from_yaml(path: Union[str, os.PathLike[str]], fps: float = 60.0) -> CameraModel:
-        """ROS camera_info or OpenCV calibration file (needs ibvs[vision])."""
+        """ROS camera_info or OpenCV calibration file (needs the vision extra: pip install ".[vision]")."""
     @staticmethod
-    def normalized(bounds: float = 0.3, fps: float = 60.0) -> CameraModel: ...
+    def normalized(bounds: float = 0.3, fps: float = 60.0) -> CameraModel:
+        """Paper Table I: unit focal length (pixels = normalised coordinates), sensor +-bounds, no
+        distortion."""
     @staticmethod
-    def afma6() -> CameraModel: ...
+    def afma6() -> CameraModel:
+        """Paper Section III-B / ViSP's Afma6 camera: 640x480, px 1090.6, py 1090.0, u0 310.1, v0 260.8,
+        kud -0.2114, kdu 0.2217, 60 fps."""
     @property
     def px(self) -> float:
         """Focal length along u, pixels (OpenCV fx)."""
     @property
-    def py(self) -> float: ...
+    def py(self) -> float:
+        """Focal length along v, pixels (OpenCV fy)."""
     @property
     def u0(self) -> float:
         """Principal point, pixels (OpenCV cx)."""
     @property
-    def v0(self) -> float: ...
+    def v0(self) -> float:
+        """Principal point v, pixels (OpenCV cy)."""
     @property
-    def distortion(self) -> str: ...
+    def distortion(self) -> str:
+        """'none', 'visp', 'plumb_bob' or 'equidistant'."""
     @property
-    def coefficients(self) -> Tuple[float, ...]: ...
+    def coefficients(self) -> Tuple[float, ...]:
+        """The distortion coefficients: () none, (kud, kdu) visp, (k1, k2, p1, p2, k3) plumb_bob,
+        (k1, k2, k3, k4) equidistant."""
     @property
     def K(self) -> _FloatArray:
         """(3, 3) camera matrix, pixels."""
     @property
-    def width(self) -> float: ...
+    def width(self) -> float:
+        """u_max - u_min, pixels."""
     @property
-    def height(self) -> float: ...
+    def height(self) -> float:
+        """v_max - v_min, pixels."""
     @property
     def bounds(self) -> Tuple[float, float, float, float]:
         """(u_min, u_max, v_min, v_max), pixels."""
     @property
-    def fps(self) -> float: ...
+    def fps(self) -> float:
+        """Frames per second."""
     @property
     def max_radius(self) -> float:
         """Normalised radius up to which the distortion is one-to-one (inf: everywhere)."""
@@ -182,7 +220,9 @@ class CameraModel:
         """Normalised (N, 2), (N, 1, 2) or (2,) -> pixels of the same shape."""
     def normalize(self, pixels: _ArrayLike, invalid: str = "raise") -> _FloatArray:
         """Pixels (N, 2), (N, 1, 2) or (2,) -> normalised of the same shape."""
-    def contains(self, pixels: _ArrayLike) -> Union[bool, npt.NDArray[np.bool_]]: ...
+    def contains(self, pixels: _ArrayLike) -> Union[bool, npt.NDArray[np.bool_]]:
+        """Whether each pixel lies inside the sensor bounds (inclusive): bool (N,), or a bool for one
+        point (2,)."""
     def to_opencv(self) -> Tuple[_FloatArray, _FloatArray]:
         """(K, dist) for OpenCV (cv2.fisheye for equidistant)."""
     def __eq__(self, other: object) -> bool: ...
@@ -204,19 +244,26 @@ class DepthEstimator:
     ) -> None: ...
     def update(self, uv: _ArrayLike, motion: _ArrayLike) -> Tuple[_FloatArray, _FloatArray]:
         """-> (depth (N,) m, variance (N,) m^2)."""
-    def reset(self, prior: _ArrayLike | None = None) -> None: ...
+    def reset(self, prior: _ArrayLike | None = None) -> None:
+        """Forget the state (and take a new prior (N,) if given): the next update() starts from the prior."""
     @property
-    def depth(self) -> _FloatArray: ...
+    def depth(self) -> _FloatArray:
+        """Current depth estimate (N,), metres (the prior before the first update)."""
     @property
-    def variance(self) -> _FloatArray: ...
+    def variance(self) -> _FloatArray:
+        """Its variance (N,), m^2 (first order in 1/z)."""
     @property
-    def prior(self) -> _FloatArray: ...
+    def prior(self) -> _FloatArray:
+        """The prior depths (N,), metres."""
     @property
-    def initialized(self) -> bool: ...
+    def initialized(self) -> bool:
+        """False until the first update() after construction or reset()."""
     @property
-    def restarts(self) -> int: ...
+    def restarts(self) -> int:
+        """Points restarted from the prior by the last update() (a prediction behind the camera)."""
     @property
-    def n_points(self) -> int: ...
+    def n_points(self) -> int:
+        """N, the number of points."""
 
 class PlanarPose:
     """Camera <- target pose and depths of a planar target (points (N, 3), z = 0, metres)."""
@@ -225,50 +272,92 @@ class PlanarPose:
     def estimate(self, uv: _ArrayLike) -> Tuple[_FloatArray, _FloatArray, bool]:
         """Normalised uv -> (pose 4x4 camera <- target, depth (N,), degenerate)."""
     @property
-    def points(self) -> _FloatArray: ...
+    def points(self) -> _FloatArray:
+        """(N, 3), target frame, metres."""
     @property
-    def iterations(self) -> int: ...
+    def iterations(self) -> int:
+        """Gauss-Newton steps after the linear (homography) start."""
 
 class ServoResult:
     """Result of one update(): a snapshot owning its buffer; error, jacobian and velocity are
     read-only views of it (no copy), never changed by later updates."""
 
     @property
-    def status(self) -> Status: ...
+    def status(self) -> Status:
+        """Status.ok, Status.singular (rank-deficient Jacobian; diagnostics on) or Status.invalid_input."""
     @property
     def velocity(self) -> _FloatArray:
         """(6,) camera twist: Tx, Ty, Tz (m/s), wx, wy, wz (rad/s)."""
     @property
-    def error(self) -> _FloatArray: ...
+    def error(self) -> _FloatArray:
+        """Feature error f (-) f* (M,). Read-only view."""
     @property
-    def error_norm(self) -> float: ...
+    def error_norm(self) -> float:
+        """Euclidean norm of error."""
     @property
-    def jacobian(self) -> _FloatArray: ...
+    def jacobian(self) -> _FloatArray:
+        """Interaction matrix used (M, 6). Read-only view."""
     @property
-    def sigma_min(self) -> float: ...
+    def sigma_min(self) -> float:
+        """Smallest singular value of jacobian; NaN if not computed (diagnostics=False, or a refused
+        input). Computed when first read (exact eigenvalues of J^T J, ~0.5 us; relative error
+        ~eps cond(J)^2) unless the step had it anyway (exact_diagnostics, QR + SVD route).
+        """
     @property
-    def sigma_max(self) -> float: ...
+    def sigma_max(self) -> float:
+        """Largest singular value of jacobian (to rounding); NaN if not computed. Computed when read."""
     @property
-    def condition(self) -> float: ...
+    def condition(self) -> float:
+        """sigma_max / sigma_min (inf when sigma_min = 0; NaN if not computed)."""
     @property
-    def polar_fallbacks(self) -> int: ...
+    def polar_fallbacks(self) -> int:
+        """Polar blocks computed as Cartesian this step (point within polar_min_radius of the centre)."""
     @property
     def gain(self) -> float:
         """The gain applied this step."""
     @property
-    def saturated(self) -> bool: ...
+    def saturated(self) -> bool:
+        """True when the twist was scaled down to the speed limits."""
     @property
-    def saturation_scale(self) -> float: ...
+    def saturation_scale(self) -> float:
+        """The uniform factor in (0, 1] applied to the twist (1 when not saturated)."""
     @property
     def pixel_error(self) -> float:
         """update_pixels: largest point-to-goal distance in pixels; NaN after update."""
 
 class Servo:
+    """The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
+
+    Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
+          max_linear_speed=inf, max_angular_speed=inf, camera=None, angle_wrap="consistent",
+          exact_diagnostics=False)
+      gain      gamma in (0, 1e250] (1/s), or an AdaptiveGain (gain as a function of the error norm)
+      damping   lambda >= 0: 0 = Moore-Penrose, > 0 = damped least squares; the twist equals
+                -gain * damped_pinv(jacobian, damping) @ error (to ~1e-10 relative) either way
+      jacobian  "current" J(f, z), "desired" J(f*, z*) or "mean" of the two
+      diagnostics  Status.singular every step (exact, from the full-rank test of the solve,
+                nearly free) and ServoResult.sigma_min / sigma_max / condition, computed when
+                read; False: NaN, never singular
+      exact_diagnostics  compute sigma_min / sigma_max every step by QR + SVD (~4 us)
+      max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
+                factor so that |T| and |w| stay within them (direction kept); inf = no limit
+      camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None
+      angle_wrap  "consistent" (default): the theta differences of one frame are wrapped as one
+                rotation about their circular mean (see feature_error), the mean kept on the
+                previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
+                forgets it); "per_point": eq. (13) point by point, no memory
+    """
+
     gain: Union[float, AdaptiveGain]
+    """The constant gain (float, 1/s) or the AdaptiveGain; settable."""
     damping: float
+    """lambda >= 0 of the damped least squares; settable."""
     max_linear_speed: float
+    """Limit on |T| (m/s), inf = none; settable."""
     max_angular_speed: float
+    """Limit on |w| (rad/s), inf = none; settable."""
     angle_wrap: str
+    """'consistent' or 'per_point' (see the class doc); setting it also forgets the previous frame."""
     def __init__(
         self,
         layout: Layout,
@@ -295,7 +384,12 @@ class Servo:
         max_angular_speed: float = ...,
         camera: CameraModel | None = None,
         angle_wrap: str = "consistent",
-    ) -> Servo: ...
+    ) -> Servo:
+        """Automatic hybrid: each point polar while it and its desired point lie at least switch_radius
+        (normalised units) from the principal point, Cartesian otherwise, re-decided every step. It is
+        Servo(Layout.polar(n_points), gain, polar_min_radius=switch_radius, ...); ServoResult.polar_fallbacks
+        counts the points computed as Cartesian.
+        """
     def update(
         self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult:
@@ -307,18 +401,23 @@ class Servo:
     def reset(self) -> None:
         """Forget the previous frame's angle-wrap branch."""
     @property
-    def camera(self) -> CameraModel | None: ...
+    def camera(self) -> CameraModel | None:
+        """The CameraModel used by update_pixels (None if not given)."""
     @property
-    def layout(self) -> Layout: ...
+    def layout(self) -> Layout:
+        """The Layout this servo was built for."""
     @property
-    def jacobian_mode(self) -> str: ...
+    def jacobian_mode(self) -> str:
+        """Where the interaction matrix is evaluated: "current", "desired" or "mean"."""
     @property
-    def polar_min_radius(self) -> float: ...
+    def polar_min_radius(self) -> float:
+        """Radius below which a polar block uses its Cartesian rows for the step (normalised units)."""
 
 class PartitionedServo:
     """Partitioned IBVS (Corke & Hutchinson 2001): wz from a segment angle, Tz from sqrt(area)."""
 
     gain: float
+    """gamma > 0, 1/s, for all three parts; settable."""
     def __init__(
         self,
         n_points: int,
@@ -331,24 +430,33 @@ class PartitionedServo:
     ) -> None: ...
     def update(
         self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
-    ) -> ServoResult: ...
+    ) -> ServoResult:
+        """One control step (depth_desired is accepted and unused)."""
     def update_pixels(
         self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
-    ) -> ServoResult: ...
+    ) -> ServoResult:
+        """One control step from pixels (N, 2) or (N, 1, 2) with the servo's camera model, as Servo.update_pixels."""
     @property
-    def camera(self) -> CameraModel | None: ...
+    def camera(self) -> CameraModel | None:
+        """The CameraModel used by update_pixels (None if not given)."""
     @property
-    def layout(self) -> Layout: ...
+    def layout(self) -> Layout:
+        """Layout.cartesian(N): the layout of its error and Jacobian."""
     @property
-    def n_points(self) -> int: ...
+    def n_points(self) -> int:
+        """N, the number of points (at least 3)."""
     @property
-    def damping(self) -> float: ...
+    def damping(self) -> float:
+        """lambda >= 0 of the least squares on the four (Tx, Ty, wx, wy) columns."""
     @property
-    def max_linear_speed(self) -> float: ...
+    def max_linear_speed(self) -> float:
+        """Limit on |(Tx, Ty, Tz)| (m/s); inf = none."""
     @property
-    def max_angular_speed(self) -> float: ...
+    def max_angular_speed(self) -> float:
+        """Limit on |(wx, wy, wz)| (rad/s); inf = none."""
     @property
-    def segment(self) -> Tuple[int, int]: ...
+    def segment(self) -> Tuple[int, int]:
+        """(i, j): the points whose image segment gives theta_z."""
 
 class JointMappingResult:
     """Result of JointMapping.update()."""
@@ -363,9 +471,11 @@ class JointMappingResult:
     def camera_jacobian(self) -> _FloatArray:
         """(6, n): camera twist (camera frame) = camera_jacobian @ qdot."""
     @property
-    def sigma_min(self) -> float: ...
+    def sigma_min(self) -> float:
+        """Smallest of the min(6, n) singular values of camera_jacobian."""
     @property
-    def sigma_max(self) -> float: ...
+    def sigma_max(self) -> float:
+        """Largest singular value of camera_jacobian."""
     @property
     def manipulability(self) -> float:
         """Product of the min(6, n) singular values of camera_jacobian (|det| for 6 joints)."""
@@ -373,11 +483,14 @@ class JointMappingResult:
     def damping(self) -> float:
         """The damping applied this step."""
     @property
-    def rank(self) -> int: ...
+    def rank(self) -> int:
+        """Numerical rank of camera_jacobian."""
     @property
-    def saturated(self) -> bool: ...
+    def saturated(self) -> bool:
+        """True when qdot was scaled down to max_joint_speed."""
     @property
-    def saturation_scale(self) -> float: ...
+    def saturation_scale(self) -> float:
+        """The uniform factor in (0, 1] applied to qdot (1 when not saturated)."""
 
 class JointMapping:
     """Camera twist -> joint velocities of the arm carrying the camera (damped least squares,
@@ -402,18 +515,25 @@ class JointMapping:
         """twist (6,) camera frame; jacobian (6, n) end-effector Jacobian in `frame`; bRe (3, 3) for
         frame='base'; secondary (n,) joint velocities projected into the null space."""
     @property
-    def n_joints(self) -> int: ...
+    def n_joints(self) -> int:
+        """n, the number of joints."""
     @property
     def eMc(self) -> _FloatArray:
         """end-effector <- camera, 4x4."""
     @property
-    def frame(self) -> str: ...
+    def frame(self) -> str:
+        """"end_effector" (ViSP eJe, Pinocchio LOCAL) or "base" (Pinocchio LOCAL_WORLD_ALIGNED): the frame of
+        the Jacobians given to update().
+        """
     @property
-    def damping(self) -> float: ...
+    def damping(self) -> float:
+        """lambda >= 0 (or its largest value, with singular_region > 0)."""
     @property
-    def singular_region(self) -> float: ...
+    def singular_region(self) -> float:
+        """Manipulability below which the damping applies (0: constant damping)."""
     @property
-    def max_joint_speed(self) -> _FloatArray | None: ...
+    def max_joint_speed(self) -> _FloatArray | None:
+        """(n,) joint-speed limits, or None."""
 
 def joint_velocities(
     twist: _ArrayLike,
@@ -428,10 +548,14 @@ def joint_velocities(
 ) -> _FloatArray:
     """(n,) joint velocities moving the camera with `twist` (JointMapping(...).update(...).qdot)."""
 
-def segment_angle(uv: _ArrayLike, i: int, j: int) -> float: ...
-def segment_angle_jacobian(uv: _ArrayLike, depth: _Depth, i: int, j: int) -> _FloatArray: ...
-def area_scale(uv: _ArrayLike) -> float: ...
-def area_scale_jacobian(uv: _ArrayLike, depth: _Depth) -> _FloatArray: ...
+def segment_angle(uv: _ArrayLike, i: int, j: int) -> float:
+    """theta_z: angle of the image segment from point i to point j."""
+def segment_angle_jacobian(uv: _ArrayLike, depth: _Depth, i: int, j: int) -> _FloatArray:
+    """(6,) d theta_z/dt = J @ v."""
+def area_scale(uv: _ArrayLike) -> float:
+    """sigma = sqrt(|area|) of the polygon of the points in order."""
+def area_scale_jacobian(uv: _ArrayLike, depth: _Depth) -> _FloatArray:
+    """(6,) d sigma/dt = J @ v."""
 
 class sim:
     """The simulator's native part. At runtime ibvs._core.sim is a submodule (pybind11
@@ -444,9 +568,11 @@ class sim:
 
         def __init__(self, points: _ArrayLike, pose: _ArrayLike | None = None) -> None: ...
         @staticmethod
-        def paper() -> sim.Target: ...
+        def paper() -> sim.Target:
+            """Paper Table I: the points (+-0.25, +-0.25, 3) in the world."""
         @staticmethod
-        def square(side: float = 0.1, pose: _ArrayLike | None = None) -> sim.Target: ...
+        def square(side: float = 0.1, pose: _ArrayLike | None = None) -> sim.Target:
+            """Four dots at the corners of a square (side in metres) in the target's z = 0 plane."""
         @property
         def points(self) -> _FloatArray:
             """(N, 3), target frame."""
@@ -456,7 +582,8 @@ class sim:
         def world_points(self) -> _FloatArray:
             """(N, 3), world frame."""
         @property
-        def planar(self) -> bool: ...
+        def planar(self) -> bool:
+            """True when every point lies in the target frame's z = 0 plane (a plate with a front side)."""
         def __len__(self) -> int: ...
 
     class Robot:
@@ -474,13 +601,17 @@ class sim:
             singular_region: float = 0.0,
         ) -> None: ...
         @property
-        def dof(self) -> int: ...
+        def dof(self) -> int:
+            """Number of joints n."""
         @property
-        def q_min(self) -> _FloatArray: ...
+        def q_min(self) -> _FloatArray:
+            """(n,) lower joint limits."""
         @property
-        def q_max(self) -> _FloatArray: ...
+        def q_max(self) -> _FloatArray:
+            """(n,) upper joint limits."""
         @property
-        def qdot_max(self) -> _FloatArray: ...
+        def qdot_max(self) -> _FloatArray:
+            """(n,) joint speed limits."""
         @property
         def mount(self) -> _FloatArray:
             """end-effector <- camera, 4x4."""
@@ -488,34 +619,46 @@ class sim:
         def frame(self) -> str:
             """Frame of the Jacobian kinematics() returns: 'end_effector' or 'base'."""
         @property
-        def damping(self) -> float: ...
+        def damping(self) -> float:
+            """Damping of the robot's JointMapping (see ibvs.JointMapping)."""
         @property
-        def singular_region(self) -> float: ...
+        def singular_region(self) -> float:
+            """Singular region of the robot's JointMapping (see ibvs.JointMapping)."""
         def kinematics(self, q: _ArrayLike) -> Tuple[_FloatArray, _FloatArray]:
             """(T_we (4, 4) world <- end effector, J (6, n) end-effector Jacobian in `frame`)."""
-        def camera(self, q: _ArrayLike) -> _FloatArray: ...
+        def camera(self, q: _ArrayLike) -> _FloatArray:
+            """world <- camera, 4x4."""
         def jacobian(self, q: _ArrayLike) -> _FloatArray:
             """(6, n) camera Jacobian."""
-        def joint_velocity(self, q: _ArrayLike, twist: _ArrayLike) -> _FloatArray: ...
-        def outside_limits(self, q: _ArrayLike) -> int: ...
+        def joint_velocity(self, q: _ArrayLike, twist: _ArrayLike) -> _FloatArray:
+            """Joint velocities (n,) for the camera twist at q, by the robot's JointMapping (before the speed
+            limits)."""
+        def outside_limits(self, q: _ArrayLike) -> int:
+            """Index of the first joint outside its range, or -1."""
 
     class Gantry(Robot):
         """Afma6-like gantry: 3 prismatic joints + 3-revolute wrist, camera on the flange."""
 
         @staticmethod
-        def afma6() -> sim.Gantry: ...
+        def afma6() -> sim.Gantry:
+            """ViSP vpAfma6 defaults with the distorted-camera mount."""
         @property
-        def coupling(self) -> float: ...
+        def coupling(self) -> float:
+            """Wrist coupling c: q6' = q6 - c q5 (ViSP's vpAfma6)."""
         @property
-        def offset(self) -> float: ...
+        def offset(self) -> float:
+            """l, metres, between joints 5 and 6 (ViSP's vpAfma6)."""
         def with_limits(
             self,
             q_min: _ArrayLike | None = None,
             q_max: _ArrayLike | None = None,
             qdot_max: _ArrayLike | None = None,
-        ) -> sim.Gantry: ...
-        def end_effector(self, q: _ArrayLike) -> _FloatArray: ...
-        def manipulability(self, q: _ArrayLike) -> float: ...
+        ) -> sim.Gantry:
+            """A copy with other joint position / speed limits."""
+        def end_effector(self, q: _ArrayLike) -> _FloatArray:
+            """world <- end-effector, 4x4."""
+        def manipulability(self, q: _ArrayLike) -> float:
+            """|det jacobian(q)| = |cos q5|."""
 
     class Sensor:
         """What the simulated camera reports each frame (ibvs.sim.run(..., vision=...)). Subclass it and

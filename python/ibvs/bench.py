@@ -13,7 +13,7 @@ with ``time.perf_counter_ns`` (the timer's own median cost subtracted): median,
 p99 and max in microseconds, and calls/s from a batched loop. A few binding
 baselines show where the time of a call goes.
 
-``--vision`` times the image loop instead (ibvs.vision, needs ``ibvs[vision]``): on the gantry's
+``--vision`` times the image loop instead (ibvs.vision, needs the ``vision`` extra): on the gantry's
 distorted 640x480 camera, per frame, rendering the dots, tracking them, rendering + detecting the
 AprilTag, one servo step from pixels, and a whole image episode (--frames frames) per frame; each
 with its share of the 16.7 ms frame budget at 60 Hz.
@@ -376,7 +376,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gain", type=number(0, 1e6, open_lo=True), default=0.5, help="gain > 0 (default 0.5)")
     p.add_argument("--json", action="store_true", help="print one JSON line instead of the table")
     p.add_argument("--vision", action="store_true",
-                   help="time the image loop (render, track, detect, servo, image episode; needs ibvs[vision])")
+                   help="time the image loop (render, track, detect, servo, image episode; "
+                        "needs the vision extra)")
     p.add_argument("--frames", type=number(2, 100000, integer=True), default=300,
                    help="frames per vision case (2 to 1e5; default 300)")
     return p

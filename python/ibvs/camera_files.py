@@ -1,6 +1,6 @@
 """Reader of camera calibration files: what ibvs.CameraModel.from_yaml reads (read(path) -> K, dist, size).
 
-Two layouts, both read with OpenCV's cv2.FileStorage (extra ``ibvs[vision]``):
+Two layouts, both read with OpenCV's cv2.FileStorage (the ``vision`` extra):
 
 * ROS ``camera_info`` YAML (camera_calibration / camera_info_manager)::
 
@@ -36,7 +36,8 @@ def _cv2():
         import cv2
     except ImportError as e:  # pragma: no cover - the test extra installs it
         raise ImportError(
-            'CameraModel.from_yaml reads calibration files with OpenCV: pip install "ibvs[vision]"'
+            'CameraModel.from_yaml reads calibration files with OpenCV: '
+            'pip install ".[vision]" from the ibvs repository root'
         ) from e
     return cv2
 

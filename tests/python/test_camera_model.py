@@ -400,7 +400,7 @@ def test_from_yaml_without_opencv_names_the_extra(tmp_path, monkeypatch):
     import sys
 
     monkeypatch.setitem(sys.modules, "cv2", None)
-    with pytest.raises(ImportError, match=r"ibvs\[vision\]"):
+    with pytest.raises(ImportError, match=r'pip install "\.\[vision\]" from the ibvs repository root'):
         ibvs.CameraModel.from_yaml(ros_file(tmp_path))
 
 

@@ -2,7 +2,7 @@
 cover: area_scale, segment_angle and their Jacobians, singular_values, PartitionedServo,
 Servo.update_pixels, joint_velocities / JointMapping and ibvs.sim.run. The rule is the same:
 every input is answered with finite numbers or refused with ValueError/TypeError naming the
-argument; the refusals are the documented limits (README, "Scale limits")."""
+argument; the refusals are the documented limits (docs/conventions.md, "Scale limits")."""
 
 from __future__ import annotations
 

@@ -1,4 +1,6 @@
-"""The README's examples are the quickstart files CI builds and runs, and its first lines are the two commands."""
+"""The README is a front page: the two commands CI runs come first, then what ibvs is, the picture, the
+installation, three examples, the comparison and the links; at most 200 lines of at most 120 characters, and every
+link it holds leads somewhere. Its code blocks are run or matched by test_docs_blocks.py."""
 
 from __future__ import annotations
 
@@ -6,53 +8,86 @@ import re
 import runpy
 from pathlib import Path
 
+try:
+    import tomllib
+except ImportError:  # Python < 3.11
+    import tomli as tomllib
+
 ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "README.md").read_text()
+COMMANDS = ['pip install ".[test,plot,cpp]" && ibvs reproduce', 'pip install ".[test,plot,cpp]" && python -m pytest']
 
 
-def blocks(lang: str) -> list[str]:
-    return re.findall(rf"```{lang}\n(.*?)```", README, flags=re.S)
+def sections() -> dict[str, str]:
+    parts = re.split(r"(?m)^## ", README)
+    return {p.split("\n", 1)[0].strip(): p for p in parts[1:]}
+
+
+def test_the_two_commands_come_first():
+    lines = README.splitlines()
+    assert lines[0] == "# ibvs" and lines[2] == "```bash"
+    assert [line.split("  #")[0].strip() for line in lines[3:5]] == COMMANDS  # what .ci/run runs
+    assert lines[5] == "```"
+
+
+def test_a_front_page_not_a_manual():
+    lines = README.splitlines()
+    assert len(lines) <= 200
+    long = [(i + 1, len(line)) for i, line in enumerate(lines) if len(line) > 120]
+    assert not long, f"lines over 120 characters: {long}"
+    assert "![" in README and "docs/figures/z_rotation.gif" in README
+    assert list(sections())[:2] == ["Installation", "Examples"]
+    for name in ("Installation", "Examples", "Documentation", "Development"):
+        assert name in sections()
+
+
+def test_installation_names_prerequisites_every_extra_and_the_build_time():
+    install = sections()["Installation"]
+    assert "C++17 compiler" in install and "Python ≥ 3.9" in install
+    assert re.search(r"about \d+ minutes? on a 2-core machine", install)
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    listed = re.findall(r"(?m)^\| `(\w+)` \|", install)
+    assert sorted(listed) == sorted(extras), "the table lists every extra of pyproject.toml, and only those"
+    assert "TODO" not in README
+
+
+def test_three_examples():
+    examples = sections()["Examples"]
+    assert len(re.findall(r"```python\n", examples)) == 2 and "```cpp\n" in examples and "```cmake\n" in examples
+    assert "update_pixels" in examples and "JointMapping" in examples  # from pixels to an arm's joints
 
 
 def test_python_example_is_the_quickstart_and_runs(capsys):
     src = (ROOT / "tests/consumer/quickstart.py").read_text()
-    assert src in blocks("python")
+    assert f"```python\n{src}```" in README
     runpy.run_path(str(ROOT / "tests/consumer/quickstart.py"))
     out = capsys.readouterr().out
     assert out.startswith("status 0 velocity") and len(out.split()) == 9
 
 
-def test_every_python_block_runs(capsys, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # the blocks write their figures into the working directory
-    for code in blocks("python"):
-        exec(compile(code, "README.md", "exec"), {})
-    out = capsys.readouterr().out
-    assert "converged" in out
-    assert "converged / diverged" in out and (tmp_path / "z_rotation.gif").stat().st_size > 10_000
+def test_comparison_with_visp_and_the_machine_vision_toolbox():
+    table = next(v for k, v in sections().items() if "ViSP" in k and "Machine Vision Toolbox" in k)
+    rows = [line for line in table.splitlines() if line.startswith("|")]
+    assert rows[0].count("|") == 5 and 6 <= len(rows) <= 14  # ibvs, ViSP, MVTB; short
+    assert "licence" in table and "BSD-3-Clause" in table and "GPL" in table and "MIT" in table
 
 
-def test_scenario_file_example_runs(tmp_path):
-    import ibvs.study.sweep as sw
-
-    (toml,) = blocks("toml")
-    (tmp_path / "my.toml").write_text(toml)
-    rows = sw.sweep(None, scenario=tmp_path / "my.toml", episodes=2, schemes=["polar"], duration=2.0, jobs=1,
-                    progress=False)
-    assert len(rows) == 2 and rows[0]["scenario"] == "my-camera" and rows[0]["depth"] == "estimated"
+def _slug(heading: str) -> str:
+    """The anchor MkDocs (and, for these headings, GitHub) gives a heading."""
+    text = re.sub(r"[^\w\s-]", "", heading.strip().lower())
+    return re.sub(r"[\s]+", "-", text).strip("-")
 
 
-def test_install_lines_work_from_a_clone():
-    """ibvs is not on a package index: every install line installs the clone (".[extra]")."""
-    text = README + "".join((ROOT / "docs" / name).read_text() for name in ("sweeps.md", "plots.md"))
-    assert not re.search(r"pip install [\"']?ibvs\[", text)
-    assert 'pip install ".[' in text
-
-
-def test_cpp_example_is_the_consumer_quickstart():
-    assert (ROOT / "tests/consumer/quickstart.cpp").read_text() in blocks("cpp")
-
-
-def test_readme_opens_with_the_two_commands():
-    first = blocks("bash")[0].splitlines()
-    assert "ibvs reproduce" in first[0] and "pytest" in first[1]
-    assert README.index("```bash") < README.index("\n## ")
+def test_links_lead_somewhere():
+    links = re.findall(r"\]\(([^)\s]+)\)", README) + re.findall(r"(?m)^\[[\w-]+\]: (\S+)$", README)
+    local = [link for link in links if not re.match(r"https?://", link)]
+    assert {"docs/index.md", "docs/api/ibvs.md", "docs/cpp.md", "LICENSE", "CITATION.cff"} <= set(local)
+    for link in local:
+        path, _, anchor = link.partition("#")
+        target = ROOT / path
+        assert target.exists(), f"README links to {path}, which does not exist"
+        if anchor:
+            headings = re.findall(r"(?m)^#+ (.+)$", target.read_text())
+            assert anchor in {_slug(h) for h in headings}, f"README links to {link}: no such heading"
+    docs = {str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")}
+    assert docs - {"docs/installation.md"} <= set(local), "the README links every page of the guide"

@@ -216,6 +216,6 @@ def test_docs_python_example_runs(capsys):
     import re
 
     text = (EXAMPLE.parent / "sweeps.md").read_text()
-    (code,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    (code,) = [c for c in re.findall(r"```python\n(.*?)```", text, flags=re.S) if "Scenario(" in c]
     exec(compile(code, "docs/sweeps.md", "exec"), {"__name__": "docs_sweeps"})
     assert "| polar |" in capsys.readouterr().out

@@ -33,7 +33,8 @@ def add_parser(sub) -> None:
                      help="write an animation: camera view and 3D scene (.gif, or .mp4 with imageio-ffmpeg)")
     one.add_argument("--vision", choices=["dots", "tag"],
                      help="close the loop through rendered images: white dots (tracked) or an AprilTag 36h11 "
-                          "(cv2.aruco); a normalised camera becomes 640x480 with f = 800 px (needs ibvs[vision])")
+                          "(cv2.aruco); a normalised camera becomes 640x480 with f = 800 px "
+                          "(needs the vision extra)")
     one.add_argument("--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
                      help="with --vision: the camera frames with detected (green) and desired (red) points, "
                           ".mp4 (imageio-ffmpeg; else a GIF, with a message) or .gif")

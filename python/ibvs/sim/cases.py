@@ -193,12 +193,12 @@ def gantry_joint_limit() -> Case:
                         GANTRY_JOINT_LIMIT_T, GANTRY_JOINT_LIMIT_R, 15.0)
 
 
-# Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install ".[robots]" from the ibvs repository
-# root): name -> (goal joints, eMc). Goals: the Panda's "default" posture of its SRDF (its hand pointing
-# down, joint 4 bent), the UR5 elbow up with the tool pointing down (q3 = pi/2 keeps it off the elbow
-# singularity, q5 = -pi/2 off the wrist one); both well inside every joint limit, smallest singular value
-# of the camera Jacobian 0.22. The camera sits 5 cm off the flange axis, 4 cm out, tilted by
-# (0.1, -0.2, 0.3) rad (rxyz).
+#: Arms of example-robot-data (ibvs.sim.UrdfRobot, needs pip install ".[robots]"): name ->
+#: (goal joints, eMc). Goals: the Panda's "default" posture of its SRDF (its hand pointing down,
+#: joint 4 bent), the UR5 elbow up with the tool pointing down (q3 = pi/2 keeps it off the elbow
+#: singularity, q5 = -pi/2 off the wrist one); both well inside every joint limit, smallest
+#: singular value of the camera Jacobian 0.22. The camera sits 5 cm off the flange axis, 4 cm
+#: out, tilted by (0.1, -0.2, 0.3) rad (rxyz).
 ARMS = {
     "panda": ((0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4), ((0.05, -0.03, 0.04), (0.1, -0.2, 0.3))),
     "ur5": ((0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0), ((0.05, -0.03, 0.04), (0.1, -0.2, 0.3))),
@@ -252,4 +252,5 @@ def free_cases() -> list[Case]:
 
 
 def all_cases() -> list[Case]:
+    """The free-flying cases (free_cases) and the two gantry cases."""
     return free_cases() + [gantry_general_motion(), gantry_joint_limit()]

@@ -34,6 +34,7 @@ SCHEME_TITLES = {
     "hybrid": "per-point hybrid (Cartesian 1-2, polar 3-4, 8x6)",
     "stacked": "stacked hybrid (16x6)",
 }
+#: The cases `ibvs reproduce` and `ibvs run` know: world -> case name -> factory (ibvs.sim.cases).
 CASES = {
     "free": {
         "x-translation": sim.cases.x_translation,
@@ -113,6 +114,7 @@ class Row:
 
 
 def make_case(world: str, case: str):
+    """The Case named `case` of `world` (a key of CASES); ValueError for an unknown one."""
     try:
         return CASES[world][case]()
     except KeyError:
@@ -141,6 +143,7 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
 
 
 def summarise(world: str, case: str, scheme: str, result, angle_wrap: str = "consistent") -> Row:
+    """One row of the summary table from a run's sim.Result."""
     h, s, m = result.history, result.status, result.metrics
     ok = np.isfinite(h.twist).all(axis=1)
     tw = h.twist[ok]
@@ -185,6 +188,8 @@ def claims(rows: list[Row]) -> list[tuple[str, bool]]:
 
 def write_summary(rows: list[Row], checks: list[tuple[str, bool]], out: Path, fig4: dict,
                   angle_wrap: str = "consistent") -> str:
+    """Write summary.csv and summary.md into out (the rows, the paper's claims checked, Fig. 4's paths);
+    return the table as Markdown."""
     with open(out / "summary.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(Row.COLUMNS)
@@ -213,6 +218,9 @@ def wrap_sentence(angle_wrap: str) -> str:
 
 def reproduce(out: Path, quick: bool = False, stream=sys.stdout,
               angle_wrap: str = "consistent") -> tuple[list[Row], list[tuple[str, bool]]]:
+    """What `ibvs reproduce` runs: every case of PAPER_CASES with the paper's four schemes, a figure per run and
+    Fig. 4 drawn into out (smaller with quick), summary.md and summary.csv written; returns the rows and the
+    paper's claims checked against them."""
     from .. import viz
 
     if angle_wrap not in ANGLE_WRAPS:

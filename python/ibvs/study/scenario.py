@@ -65,6 +65,7 @@ DEFAULTS = {"rz_deg": 0.0, "tilt_deg": 0.0, "tilt_dir_deg": 0.0, "tx": 0.0, "ty"
 LIMITS = {"rz_deg": (-360.0, 360.0), "tilt_deg": (0.0, 180.0), "tilt_dir_deg": (-360.0, 720.0),
           "tx": (-1e3, 1e3), "ty": (-1e3, 1e3), "tz": (-1e3, 1e3), "noise": (0.0, 1e4),
           "depth_scale": (1e-3, 1e3), "latency": (0, 1000)}
+#: The depth given to the controller (ibvs.sim.run's depth).
 DEPTH_MODES = ("exact", "pose", "desired", "estimated")
 #: The angle wraps of ibvs.Servo (its angle_wrap option).
 ANGLE_WRAPS = ("consistent", "per_point")

@@ -1,5 +1,5 @@
 """ibvs.vision: the image in the loop. What the simulated camera sees of a planar target, and
-the dots or the tag found in it (OpenCV; extra ``ibvs[vision]``).
+the dots or the tag found in it (OpenCV: the ``vision`` extra, pip install ".[vision]").
 
     renderer = Renderer(camera, target, kind="dots")     # white dots on a dark plate, or kind="tag"
     image = renderer.render(pose_wc)                     # uint8 (height, width), the camera's lens

@@ -40,7 +40,7 @@ def draw_points(image, detected=None, desired=None) -> np.ndarray:
 
 def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) -> str:
     """Write the frames (uint8 grayscale) with the detected points (K, N, 2) and the desired ones (N, 2)
-    drawn: an MP4 through imageio-ffmpeg when installed (extra ibvs[video]); otherwise, or for a .gif
+    drawn: an MP4 through imageio-ffmpeg when installed (the video extra); otherwise, or for a .gif
     path, a GIF (Pillow, which comes with matplotlib); PNG frames in a directory for any other path
     or without Pillow. A fallback says so on stdout. Returns the path written."""
     import pathlib
@@ -69,7 +69,7 @@ def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) ->
     if path.suffix.lower() == ".gif":
         try:
             from PIL import Image
-        except ImportError:  # Pillow comes with matplotlib (ibvs[plot]); without it, PNG frames
+        except ImportError:  # Pillow comes with matplotlib (the plot extra); without it, PNG frames
             path = path.with_suffix("")
             print(f"Pillow is not installed (pip install '.[plot]'): writing PNG frames into {path}/ instead")
         else:

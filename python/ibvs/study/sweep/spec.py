@@ -116,4 +116,5 @@ def samples(spec: SweepSpec, indices: Optional[Iterable[int]] = None) -> list[di
 
 
 def episode_id(config: str, index: int, scheme: str) -> str:
+    """The stable id of a row: config hash, episode index and scheme ("config:index:scheme")."""
     return f"{config}:{index}:{scheme}"

@@ -1,0 +1,247 @@
+"""Every code block of README.md and docs/*.md is executed, compiled or matched to a file that is; none is skipped
+in silence.
+
+- python: run as written (in a fresh namespace, in a temporary working directory), except where SHRINK replaces a
+  study's thousands of episodes by a handful (the text's numbers come from the full run; here it must run and print).
+- bash / sh: run by bash, `ibvs` being `python -m ibvs` of this interpreter and `docs/...` the repository's, with the
+  same shrinking; or listed in NOT_RUN with the reason.
+- cpp, cmake: the README's are tests/consumer/quickstart.cpp and the statements of tests/consumer/CMakeLists.txt,
+  which CI builds and runs against an installed prefix and against the wheel (.ci/run).
+- toml: loaded as a scenario and swept.
+- A block that only includes a file (`--8<-- "path"`, MkDocs' snippets) shows that file, tested where it lives.
+- text: printed output or a formula, not code.
+A block that no rule covers fails the test, and so does a rule that no longer matches a block.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+
+import ibvs
+
+ROOT = Path(__file__).resolve().parents[2]
+PAGES = [ROOT / "README.md"] + sorted((ROOT / "docs").rglob("*.md"))
+FENCE = re.compile(r"^(?P<indent>[ \t]*)```(?P<lang>[\w+-]*)[^\n]*\n(?P<body>.*?)^(?P=indent)```[ \t]*$", re.M | re.S)
+INCLUDE = re.compile(r'^-{1,}8<-{1,}\s+"(?P<path>[^"]+)"$')
+
+
+class Block:
+    def __init__(self, page: Path, lang: str, body: str, line: int):
+        self.page, self.lang, self.body, self.line = page, lang, body, line
+        self.name = str(page.relative_to(ROOT))
+
+    @property
+    def id(self) -> str:
+        return f"{self.name}:{self.line}"
+
+
+def blocks() -> list[Block]:
+    found = []
+    for page in PAGES:
+        text = page.read_text()
+        for m in FENCE.finditer(text):
+            indent = m.group("indent")
+            body = "".join(x[len(indent):] if x.startswith(indent) else x for x in m.group("body").splitlines(True))
+            found.append(Block(page, m.group("lang"), body, text.count("\n", 0, m.start()) + 1))
+    return found
+
+
+BLOCKS = blocks()
+
+# A rule is keyed by (page, a text the block contains).
+# Studies shrunk to a few episodes: [(text, replacement)]. The full run takes minutes (its time is written next to
+# the command) and its numbers are the text's; the test checks that the block runs.
+SHRINK = {
+    ("docs/beyond.md", "ibvs sweep --out sweep.csv"): [("--episodes 1000", "--episodes 2 --jobs 1")],
+    ("docs/beyond.md", "ibvs sweep --world gantry"): [("--episodes 1000", "--episodes 2 --jobs 1")],
+    ("docs/beyond.md", 'sw.sweep("depth_scale.csv"'): [("episodes=1000", "episodes=12, jobs=1")],
+    ("docs/beyond.md", "docs/scripts/depth_modes.py"): [(" 100 ", " 3 ")],
+    ("docs/beyond.md", "docs/scripts/halfturn.py"): [(" 1200 ", " 12 ")],
+    ("docs/beyond.md", "docs/scripts/flips.py"): [(" 40 ", " 1 ")],
+    ("docs/sweeps.md", "--out mine.csv --figure mine.png"): [
+        ("--figure mine.png\n", "--figure mine.png --episodes 2 --jobs 1\n"),
+        ("--episodes 1000", "--episodes 3 --jobs 1")],
+    ("docs/plots.md", 'frames = ibvs.viz.animate(result, "run.gif")'): [("duration=30.0", "duration=3.0")],
+    ("docs/benchmarks.md", "--sections components --layout cartesian,stacked"): [("50000", "300"), ("20000", "300")],
+}
+
+# Blocks not run here, and why.
+NOT_RUN = {
+    ("README.md", 'pip install ".[test,plot,cpp]" && ibvs reproduce'):
+        "the two commands: .ci/run runs them first, from a clean clone",
+    ("docs/index.md", 'pip install ".[test,plot,cpp]" && ibvs reproduce'):
+        "the README's two commands: .ci/run runs them",
+    ("README.md", 'pip install ".[plot,robots]"'):
+        "it builds and installs the package (minutes); .ci/run installs it the same way",
+    ("README.md", "pip install --no-build-isolation"):
+        "the development set-up builds everything twice (minutes); .ci/run builds and tests the same way",
+    ("docs/sweeps.md", "dask scheduler"):
+        "it starts servers, one per terminal: tests/python/test_sweep_cluster.py runs these commands",
+    ("docs/benchmarks.md", "--realtime"):
+        "minutes of timing, taskset pinning and SCHED_FIFO (root); tests/python/test_bench.py runs the same "
+        "programs briefly",
+}
+
+# Blocks that need something prepared first, and why.
+PRELUDE = {
+    # A figure of the reader's `result` in a window: a test has no display, so pyplot runs on Agg here, and
+    # plt.show() warns that it cannot show (the warning is expected).
+    ("docs/plots.md", "plt.show()"):
+        "import matplotlib\nmatplotlib.use('Agg')\nimport ibvs\nfrom ibvs import sim\ncase = sim.cases.z_rotation()\n"
+        "result = sim.run(ibvs.Servo(ibvs.Layout.polar(4), gain=1.0), case.camera, case.target, case.start, "
+        "case.goal, duration=2.0)\n",
+}
+
+# What a block must print: claims of the text, checked where they are cheap.
+PRINTS = {
+    ("README.md", "layout = ibvs.Layout.stacked(4)"): ["status 0 velocity"],
+    ("README.md", "panda.kinematics(q)"): ["joint velocities (rad/s):"],
+    ("docs/plots.md", "ibvs.viz.compare(runs, labels)"): ["converged / diverged"],
+    ("docs/arms.md", "cv2.aruco.ArucoDetector"): ["at frame 218 (converged)", "camera 1.0 mm"],
+    ("docs/arms.md", "print(r, r.history.q.shape)"): ["converged at frame 765"],
+    ("docs/simulator.md", "noise=0.3, latency=1, seed=7"): ["converged"],
+    ("docs/control-law.md", "ibvs.PartitionedServo(4, gain=1.0)"): ["cartesian    Tz"],
+    ("docs/control-law.md", "max_linear_speed=0.5, max_angular_speed=1.0"): ["True 0.0625"],
+    ("docs/beyond.md", "docs/scripts/gain_saturation.py"): ["| z_rotation | polar | gain 1 | converged | 13.2 |"],
+}
+
+
+def rule(table: dict, block: Block):
+    keys = [k for k in table if k[0] == block.name and k[1] in block.body]
+    assert len(keys) <= 1, f"{block.id}: several rules match: {keys}"
+    return (keys[0], table[keys[0]]) if keys else (None, None)
+
+
+def substituted(block: Block) -> str:
+    body = block.body
+    for old, new in rule(SHRINK, block)[1] or []:
+        assert old in body, f"{block.id}: {old!r} is no longer in the block: update SHRINK"
+        body = body.replace(old, new)
+    return body
+
+
+def is_include(block: Block) -> bool:
+    lines = [x.strip() for x in block.body.splitlines() if x.strip()]
+    return bool(lines) and all(INCLUDE.match(x) for x in lines)
+
+
+def by_lang(*langs: str) -> list[Block]:
+    return [b for b in BLOCKS if b.lang in langs and not is_include(b)]
+
+
+def test_every_block_has_a_rule():
+    known = {"python", "bash", "sh", "cpp", "cmake", "toml", "text"}
+    for b in BLOCKS:
+        assert b.lang in known or is_include(b), f"{b.id}: a ```{b.lang} block: no rule runs or matches it"
+        assert b.lang or is_include(b), f"{b.id}: a block without a language (```text for output)"
+    used = {rule(t, b)[0] for t in (SHRINK, NOT_RUN, PRELUDE, PRINTS) for b in BLOCKS} - {None}
+    stale = [k for t in (SHRINK, NOT_RUN, PRELUDE, PRINTS) for k in t if k not in used]
+    assert not stale, f"rules that match no block: {stale}"
+    assert len(by_lang("python")) >= 20 and len(by_lang("bash", "sh")) >= 8
+
+
+def test_included_files_exist():
+    includes = [(b, INCLUDE.match(x.strip())) for b in BLOCKS if is_include(b)
+                for x in b.body.splitlines() if x.strip()]
+    assert includes
+    for b, m in includes:
+        assert (ROOT / m.group("path").split(":")[0]).is_file(), f"{b.id}: {m.group('path')} does not exist"
+
+
+@pytest.mark.parametrize("block", by_lang("python"), ids=lambda b: b.id)
+def test_python_block_runs(block, tmp_path, monkeypatch, capsys):
+    assert rule(NOT_RUN, block)[0] is None, "Python blocks all run"
+    monkeypatch.chdir(tmp_path)  # the blocks write their files into the working directory
+    monkeypatch.setattr(sys, "argv", [block.id])
+    code = (rule(PRELUDE, block)[1] or "") + substituted(block)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="FigureCanvasAgg is non-interactive")  # plt.show() under Agg
+        exec(compile(code, block.id, "exec"), {"__name__": "__main__"})
+    out = capsys.readouterr().out
+    for expected in rule(PRINTS, block)[1] or []:
+        assert expected in out, f"{block.id} should print {expected!r}; it printed:\n{out}"
+
+
+def _bench_cli() -> str | None:
+    from test_bench import _ibvs_bench  # the same search as the benchmark's own tests
+
+    return _ibvs_bench()
+
+
+@pytest.mark.parametrize("block", by_lang("bash", "sh"), ids=lambda b: b.id)
+def test_shell_block_runs(block, tmp_path):
+    reason = rule(NOT_RUN, block)[1]
+    if reason:
+        pytest.skip(f"not run here: {reason}")
+    body = substituted(block)
+    body = re.sub(r"(?<![\w/.])docs/", str(ROOT / "docs") + "/", body)
+    if "ibvs-bench" in body:
+        cli = _bench_cli()
+        if cli is None:
+            if os.environ.get("IBVS_BENCH_REQUIRE_CLI"):
+                pytest.fail("ibvs-bench is required (IBVS_BENCH_REQUIRE_CLI) but not found")
+            pytest.skip("ibvs-bench is not built here (pip install . installs it; CI requires it)")
+        body = body.replace("ibvs-bench", shlex.quote(cli))
+    python = shlex.quote(sys.executable)
+    prelude = f"set -euo pipefail\nibvs() {{ {python} -m ibvs \"$@\"; }}\npython() {{ {python} \"$@\"; }}\n"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(Path(ibvs.__file__).resolve().parents[1])] + [p for p in [os.environ.get("PYTHONPATH")] if p]),
+        MPLBACKEND="Agg")
+    run = subprocess.run(["bash", "-c", prelude + body], cwd=tmp_path, env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, f"{block.id} failed ({run.returncode}):\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}"
+    for expected in rule(PRINTS, block)[1] or []:
+        assert expected in run.stdout, f"{block.id} should print {expected!r}; it printed:\n{run.stdout}"
+
+
+def test_cpp_blocks_are_the_consumer_ci_builds():
+    (cpp,) = by_lang("cpp")  # the README's; docs/cpp.md includes the files themselves
+    assert cpp.name == "README.md" and cpp.body == (ROOT / "tests/consumer/quickstart.cpp").read_text()
+
+
+def _statements(cmake: str) -> list[list[str]]:
+    """CMake commands as token lists, comments dropped, a find_package version argument dropped."""
+    text = re.sub(r"#[^\n]*", "", cmake)
+    out = []
+    for name, args in re.findall(r"(\w+)\s*\(([^)]*)\)", text):
+        tokens = [name] + args.split()
+        if name == "find_package":
+            tokens = [t for t in tokens if not re.fullmatch(r"\d+(\.\d+)*", t)]
+        out.append(tokens)
+    return out
+
+
+def test_cmake_blocks_are_statements_of_the_consumer_ci_builds():
+    consumer = _statements((ROOT / "tests/consumer/CMakeLists.txt").read_text())
+    blocks_ = by_lang("cmake")
+    assert blocks_
+    for b in blocks_:
+        for statement in _statements(b.body):
+            assert statement in consumer, f"{b.id}: {' '.join(statement)} is not in tests/consumer/CMakeLists.txt"
+
+
+def test_scenario_file_blocks_run(tmp_path):
+    import ibvs.study.sweep as sw
+
+    tomls = by_lang("toml")
+    assert tomls
+    for b in tomls:
+        path = tmp_path / "my.toml"
+        path.write_text(b.body)
+        rows = sw.sweep(None, scenario=path, episodes=2, schemes=["polar"], duration=2.0, jobs=1, progress=False)
+        assert len(rows) == 2 and rows[0]["scenario"] == "my-camera" and rows[0]["depth"] == "estimated"
+
+
+def test_named_scripts_exist():
+    """Every `python path/to/script.py` the README or the docs name is a file of the repository."""
+    for page in PAGES:
+        for path in re.findall(r"\bpython3? ((?:[\w.-]+/)*[\w.-]+\.py)\b", page.read_text()):
+            assert (ROOT / path).is_file(), f"{page.relative_to(ROOT)} names {path}, which does not exist"
