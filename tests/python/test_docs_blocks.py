@@ -70,6 +70,11 @@ SHRINK = {
         ("--figure mine.png\n", "--figure mine.png --episodes 2 --jobs 1\n"),
         ("--episodes 1000", "--episodes 3 --jobs 1")],
     ("docs/plots.md", 'frames = ibvs.viz.animate(result, "run.gif")'): [("duration=30.0", "duration=3.0")],
+    # The reader's own arm: here the UR5 of example-robot-data, copied to my_arm.urdf.
+    ("docs/sweeps.md", "--robot my_arm.urdf"): [
+        ("ibvs sweep --scenario docs/scenario_arm.toml --out arm.csv\n",
+         "cp \"$(python -c 'from ibvs import sim; print(sim.example_robot_urdf(\"ur5\"))')\" my_arm.urdf\n"
+         "ibvs sweep --scenario docs/scenario_arm.toml --out arm.csv --episodes 2 --jobs 1\n")],
     ("docs/benchmarks.md", "--sections components --layout cartesian,stacked"): [("50000", "300"), ("20000", "300")],
 }
 
