@@ -87,6 +87,15 @@
 // within [min_depth, 100 depth_scale z*]. Depth mode "pose": ibvs::PlanarPose
 // on the controller's points (the last estimate is kept when one is degenerate).
 //
+// In the code (cpp/src/sim/episode.cpp) each frame is a sequence of named
+// stages, each in its own file under cpp/src/sim/stages/ and tested on its own
+// (tests/cpp/test_sim_stages.cpp): measure (steps 2-4: the points in the camera
+// frame, their projections, the sensor, the latency ring, the controller's
+// points), estimate depths (step 4), control (step 5: the servo and the
+// boundary potential), actuate (step 6: free flight or the robot's joints) and
+// judge (every outcome above, asked after each stage in the order given here);
+// record writes the History.
+//
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
 
@@ -273,40 +282,17 @@ class Episode {
   Sensor& sensor() const noexcept { return *sensor_; }
 
  private:
+  struct Stages;  // the loop's stages (cpp/src/sim/stages/), built by the constructors
   void prepare(const Pose& goal);
   void loop(Pose T_wc, const JointVector* q_start) noexcept;
-  double boundary_tz(int seen) const noexcept;
-  bool target_contact(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool moved, EpisodeStatus& st) const noexcept;
 
   AnyServo servo_;
-  ServoOutput out_;
   CameraModel camera_;
   Target target_;
   std::shared_ptr<Robot> robot_;
   std::shared_ptr<Sensor> sensor_;
-  std::optional<JointMapping> mapping_;  // the robot's, sized for its n joints
-  JointMappingInput joint_in_{1};
-  JointMappingOutput joint_out_{1};
   EpisodeOptions options_;
-  std::optional<PlanarPose> pose_estimator_;        // DepthMode::pose
-  std::optional<DepthEstimator> depth_estimator_;  // DepthMode::estimated
-  Eigen::Matrix3Xd world_points_;
-  Eigen::Vector3d centroid_;  // target frame
-  // target faces (see above): the plane's unit normal in the world on the goal camera's side
-  // (zero: no front), the extent's radius, the standoff in metres, the centroid in the world
-  Eigen::Vector3d front_ = Eigen::Vector3d::Zero();
-  double extent_ = 0.0, standoff_ = 0.0;
-  Eigen::Vector3d centroid_w_ = Eigen::Vector3d::Zero();
-  // per-frame work
-  Eigen::Matrix3Xd pc_;
-  Points projected_;  // 2 x N true projections of this frame
-  Points measured_;   // 2 x N(L+1) ring of measurements
-  RowMatrix ring_depth_;  // (L+1) x N true depths
-  Points uv_;
-  Eigen::VectorXd z_;
-  Eigen::Matrix4Xd desired_distance_;  // 4 x N: desired points' distances to the sensor's sides
-  // depth estimate: a ring of the camera's motion after each frame (new pose in the old frame)
-  std::vector<Pose> ring_motion_;  // L + 1
+  std::unique_ptr<Stages> stages_;
   EpisodeResult result_;
 };
 
