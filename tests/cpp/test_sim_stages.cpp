@@ -174,6 +174,17 @@ void measure_teaches() {
   CHECK_NEAR(uvd(0, 0), 0.1, 1e-12);
   CHECK_NEAR(uvd(1, 1), 0.3, 1e-12);
   CHECK_NEAR(m.goal_measured()(0, 0), 320 + 500 * 0.1, 1e-9);  // frame -1: no stamp
+  // pixel_error: the worst measured point's distance from the goal's measurement; the goal's
+  // measurement is kept when the ring's slots are overwritten.
+  const View at_goal(goal);
+  st::Sighting s = m.capture(0, goal, at_goal.R, at_goal.t, Twist::Zero(), sensor);
+  CHECK(s.pixel_error == 0.0);  // frame 0: stamp (0, 0)
+  s = m.capture(3, goal, at_goal.R, at_goal.t, Twist::Zero(), sensor);
+  CHECK_NEAR(s.pixel_error, 3.0 * std::sqrt(2.0), 1e-12);  // stamp (3, -3) on every point
+  CHECK_NEAR(m.goal_measured()(0, 0), 320 + 500 * 0.1, 1e-9);
+  sensor.drop = 1;  // a point lost: no pixel error
+  CHECK(std::isnan(m.capture(4, goal, at_goal.R, at_goal.t, Twist::Zero(), sensor).pixel_error));
+  sensor.drop = -1;
   CHECK_THROWS(m.teach(translation(0, 0, 2.5), sensor, uvd, zd));  // point 1 behind
   CHECK_THROWS(m.teach(translation(-2.0, 0, 0), sensor, uvd, zd));  // point 0 at x/z = 0.73, u = 687
   sensor.fail_at = -1;
@@ -583,32 +594,53 @@ void judge_control_and_motion() {
   ServoOutput out(Layout::cartesian(4));
   out.velocity.setConstant(0.1);
   out.error_norm = 0.5;  // the first error: the reference for max_error_ratio
-  CHECK(!j.control(0, Status::ok, out, s));
-  CHECK(j.control(1, Status::invalid_input, out, s) && s.outcome == Outcome::diverged && s.frame == 1);
+  CHECK(!j.control(0, Status::ok, out, nan, s));
+  CHECK(j.control(1, Status::invalid_input, out, nan, s) && s.outcome == Outcome::diverged && s.frame == 1);
   out.error_norm = 49.9;
-  CHECK(!j.control(2, Status::ok, out, s));
+  CHECK(!j.control(2, Status::ok, out, nan, s));
   out.error_norm = 50.1;  // 100 times the first
-  CHECK(j.control(2, Status::ok, out, s) && s.outcome == Outcome::diverged);
+  CHECK(j.control(2, Status::ok, out, nan, s) && s.outcome == Outcome::diverged);
   out.error_norm = nan;
-  CHECK(j.control(2, Status::ok, out, s) && s.outcome == Outcome::diverged);
+  CHECK(j.control(2, Status::ok, out, nan, s) && s.outcome == Outcome::diverged);
   out.error_norm = 0.2;
   out.velocity(4) = nan;
-  CHECK(j.control(2, Status::ok, out, s) && s.outcome == Outcome::diverged);
+  CHECK(j.control(2, Status::ok, out, nan, s) && s.outcome == Outcome::diverged);
   out.velocity(4) = 0.1;
-  CHECK(j.control(3, Status::singular, out, s) && s.outcome == Outcome::singular && s.frame == 3);
+  CHECK(j.control(3, Status::singular, out, nan, s) && s.outcome == Outcome::singular && s.frame == 3);
   out.error_norm = 9e-4;  // under the tolerance: converged, singular or not
-  CHECK(j.control(3, Status::singular, out, s) && s.outcome == Outcome::converged);
+  CHECK(j.control(3, Status::singular, out, nan, s) && s.outcome == Outcome::converged);
   out.error_norm = 0.2;
-  CHECK(!j.control(K - 2, Status::ok, out, s));
-  CHECK(j.control(K - 1, Status::ok, out, s) && s.outcome == Outcome::timeout && s.frame == K - 1);
+  CHECK(!j.control(K - 2, Status::ok, out, nan, s));
+  CHECK(j.control(K - 1, Status::ok, out, nan, s) && s.outcome == Outcome::timeout && s.frame == K - 1);
   out.error_norm = 9e-4;
-  CHECK(j.control(K - 1, Status::ok, out, s) && s.outcome == Outcome::converged);
+  CHECK(j.control(K - 1, Status::ok, out, nan, s) && s.outcome == Outcome::converged);
   // stop_on_singular off: a singular step goes on
   EpisodeOptions o = judge_options();
   o.stop_on_singular = false;
   st::Judge g(Target::paper(), o, K);
   out.error_norm = 0.2;
-  CHECK(!g.control(0, Status::singular, out, s));
+  CHECK(!g.control(0, Status::singular, out, nan, s));
+  // tolerance_px: converged only when the error norm is under tolerance and the worst measured
+  // point within tolerance_px of its goal (a NaN pixel error, no measurement, never passes)
+  EpisodeOptions px = judge_options();
+  px.tolerance_px = 1.0;
+  st::Judge p(Target::paper(), px, K);
+  out.error_norm = 0.5;
+  CHECK(!p.control(0, Status::ok, out, 0.5, s));
+  out.error_norm = 9e-4;
+  CHECK(!p.control(1, Status::ok, out, 1.5, s));  // the norm passes, the pixels do not
+  CHECK(!p.control(1, Status::ok, out, nan, s));
+  CHECK(p.control(1, Status::ok, out, 1.0, s) && s.outcome == Outcome::converged && s.frame == 1);
+  out.error_norm = 0.2;
+  CHECK(!p.control(2, Status::ok, out, 0.1, s));  // the pixels pass, the norm does not
+  px.tolerance = std::numeric_limits<double>::infinity();  // the pixels alone
+  st::Judge q(Target::paper(), px, K);
+  out.error_norm = 0.5;
+  CHECK(!q.control(0, Status::ok, out, 1.5, s));
+  CHECK(q.control(1, Status::ok, out, 0.9, s) && s.outcome == Outcome::converged);
+  out.error_norm = nan;  // a non-finite error is not converged: diverged
+  CHECK(q.control(2, Status::ok, out, 0.9, s) && s.outcome == Outcome::diverged);
+  out.error_norm = 0.2;
   // joint limit
   CHECK(!j.motion(7, -1, s));
   CHECK(j.motion(7, 4, s) && s.outcome == Outcome::joint_limit && s.joint == 4 && s.frame == 7 && s.point == -1);

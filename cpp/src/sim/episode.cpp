@@ -49,7 +49,9 @@ void EpisodeOptions::validate() const {
   if (depth != DepthMode::exact && depth != DepthMode::pose && depth != DepthMode::desired &&
       depth != DepthMode::estimated)
     fail("depth must be exact, pose, desired or estimated");
-  if (!(tolerance >= 0.0) || !std::isfinite(tolerance)) fail("tolerance must be finite and >= 0");
+  if (!(tolerance_px >= 0.0) || !std::isfinite(tolerance_px)) fail("tolerance_px must be finite and >= 0");
+  if (!(tolerance >= 0.0) || (std::isinf(tolerance) && !(tolerance_px > 0.0)))
+    fail("tolerance must be finite and >= 0 (inf, no error-norm test, only with a tolerance_px > 0)");
   if (!(min_depth > 0.0) || !std::isfinite(min_depth)) fail("min_depth must be finite and > 0");
   if (!(max_depth_ratio > 1.0)) fail("max_depth_ratio must be > 1");
   if (!(max_error_ratio > 1.0)) fail("max_error_ratio must be > 1");
@@ -126,6 +128,7 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
   stages::allocate(result_.history, frames, n, layout.rows());
   result_.uv_desired.resize(2, n);
+  result_.measured_desired.resize(2, n);
   result_.depth_desired.resize(n);
 }
 
@@ -149,6 +152,7 @@ void Episode::prepare(const Pose& goal) {
   result_.goal = goal;
   Stages& s = *stages_;
   s.measure.teach(goal, *sensor_, result_.uv_desired, result_.depth_desired);
+  result_.measured_desired = s.measure.goal_measured();
   s.depths.aim(result_.depth_desired);
   s.control.aim(s.measure.goal_measured());
   s.judge.aim(goal);
@@ -231,7 +235,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     const Status s = control.step(servo_, measure.uv(), depths.depth(), result_.uv_desired, result_.depth_desired,
                                   measure.measured(seen));
     if (s != Status::invalid_input) stages::record_control(h, k, control.output());
-    if (judge.control(k, s, control.output(), st)) break;
+    if (judge.control(k, s, control.output(), sighting.pixel_error, st)) break;
 
     // Actuate: the motion until the next frame.
     const Twist& v = control.output().velocity;

@@ -31,7 +31,9 @@
 //      Hutchinson 2001) gives the camera twist; with
 //      boundary_margin > 0 an image-boundary potential adds a retreat to Tz
 //      (paper Section IV, below); the episode
-//      ends when the error norm is under tolerance (converged), the servo
+//      ends when the error norm is under tolerance and, with tolerance_px > 0,
+//      every point this frame's measurement (step 3) holds lies within
+//      tolerance_px of the goal's measurement (converged), the servo
 //      reports a singular J (singular) or the error / target depth blows up
 //      (diverged);
 //   6. the twist moves the camera (free) or, on a robot, becomes joint
@@ -139,7 +141,7 @@ enum class DepthMode : std::uint8_t {
 
 /// How an episode ended.
 enum class Outcome : std::uint8_t {
-  converged = 0,      ///< error norm < tolerance
+  converged = 0,      ///< error norm < tolerance (and every measured point within tolerance_px of its goal)
   left_image = 1,     ///< a point left the sensor or the camera model's domain (EpisodeStatus::point)
   behind_camera = 2,  ///< a point's depth fell below min_depth (EpisodeStatus::point)
   joint_limit = 3,    ///< the next step would leave a joint's range (EpisodeStatus::joint)
@@ -159,7 +161,13 @@ struct EpisodeOptions {
   int latency = 0;          ///< frames between capture and control, >= 0
   DepthMode depth = DepthMode::exact;
   std::uint64_t seed = 0;   ///< std::mt19937_64 seed of the noise
-  double tolerance = 1e-4;  ///< converged when the servo's error norm is below this
+  /// Converged when the servo's error norm is below this (and the pixel test below passes);
+  /// +inf: no test of the error norm, only the pixel test (then tolerance_px must be > 0).
+  double tolerance = 1e-4;
+  /// > 0: converged also needs every point of the frame's measurement (as the sensor or a
+  /// tracker reports it, before latency) within this distance of the goal's measurement,
+  /// measurement units (pixels); 0 = no pixel test.
+  double tolerance_px = 0.0;
   double min_depth = 1e-3;  ///< metres; behind_camera below it
   double max_depth_ratio = 10.0;   ///< diverged when the target's depth exceeds this times its start depth
   double max_error_ratio = 100.0;  ///< diverged when the error norm exceeds this times its first value
@@ -238,6 +246,9 @@ struct EpisodeResult {
   Metrics metrics;
   History history;
   Points uv_desired;              ///< 2 x N, what the controller aims at
+  /// 2 x N, the goal as the sensor measured it (measurement units, pixels): what tolerance_px
+  /// compares each frame's measurement with.
+  Points measured_desired;
   Eigen::VectorXd depth_desired;  ///< N
   Pose goal = Pose::Identity();   ///< world <- camera at the goal
 };

@@ -65,13 +65,13 @@ bool Judge::view(int k, int lost, EpisodeStatus& st) const noexcept {
   return true;
 }
 
-bool Judge::control(int k, Status s, const ServoOutput& out, EpisodeStatus& st) noexcept {
+bool Judge::control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st) noexcept {
   if (s == Status::invalid_input) {  // e.g. an estimated depth <= 0
     st = {Outcome::diverged, k, -1, -1};
     return true;
   }
   if (k == 0) error0_ = out.error_norm;
-  if (out.error_norm < options_.tolerance)
+  if (out.error_norm < options_.tolerance && (options_.tolerance_px == 0.0 || pixel_error <= options_.tolerance_px))
     st = {Outcome::converged, k, -1, -1};
   else if (s == Status::singular && options_.stop_on_singular)
     st = {Outcome::singular, k, -1, -1};

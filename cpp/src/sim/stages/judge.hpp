@@ -10,7 +10,8 @@
 //               lost_feature (the sensor lost a point);
 //   view()      left_image (a pixel the model cannot normalise);
 //   control()   diverged (the servo refused its input), converged (error norm
-//               under tolerance), singular (stop_on_singular), diverged (a
+//               under tolerance and, with tolerance_px > 0, the frame's worst
+//               measured point within tolerance_px of its goal), singular (stop_on_singular), diverged (a
 //               non-finite twist or error, or the error beyond max_error_ratio
 //               times its first value), timeout (the last frame);
 //   motion()    joint_limit (a joint would leave its range).
@@ -46,7 +47,8 @@ class Judge {
               EpisodeStatus& st) noexcept;
   bool sighting(int k, const Sighting& s, EpisodeStatus& st) const noexcept;
   bool view(int k, int lost, EpisodeStatus& st) const noexcept;
-  bool control(int k, Status s, const ServoOutput& out, EpisodeStatus& st) noexcept;
+  /// pixel_error: the frame's Sighting::pixel_error (used when tolerance_px > 0; NaN never passes).
+  bool control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st) noexcept;
   bool motion(int k, int joint, EpisodeStatus& st) const noexcept;
 
   /// Collision or target_backside for the camera centre moving from `from` (the last frame's;

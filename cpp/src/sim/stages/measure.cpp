@@ -1,5 +1,6 @@
 #include "measure.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -17,6 +18,7 @@ Measure::Measure(const CameraModel& camera, const Eigen::Matrix3Xd& world_points
   measured_.resize(2, static_cast<Eigen::Index>(n_) * slots_);
   ring_depth_.resize(slots_, n_);
   uv_.resize(2, n_);
+  goal_.setZero(2, n_);
 }
 
 void Measure::teach(const Pose& goal, Sensor& sensor, Points& uv_desired, Eigen::VectorXd& depth_desired) {
@@ -49,6 +51,7 @@ void Measure::teach(const Pose& goal, Sensor& sensor, Points& uv_desired, Eigen:
     if (!camera_.normalize(m(0), m(1), uv)) fail(i, " is outside the image");
     uv_desired.col(i) = uv;
   }
+  goal_ = measured;
 }
 
 Sighting Measure::capture(int k, const Pose& T_wc, const Eigen::Matrix3d& Rcw, const Eigen::Vector3d& tcw,
@@ -76,8 +79,15 @@ Sighting Measure::capture(int k, const Pose& T_wc, const Eigen::Matrix3d& Rcw, c
   f.twist = &moved;
   auto measured = measured_.middleCols(static_cast<Eigen::Index>(at) * n_, n_);
   s.sensed = sensor.measure(f, measured);
-  for (int i = 0; i < n_ && s.missing < 0; ++i)
-    if (!measured.col(i).allFinite()) s.missing = i;
+  double worst = 0.0;
+  for (int i = 0; i < n_; ++i) {
+    if (!measured.col(i).allFinite()) {
+      if (s.missing < 0) s.missing = i;
+    } else {
+      worst = std::max(worst, (measured.col(i) - goal_.col(i)).norm());
+    }
+  }
+  if (s.missing < 0 && s.sensed) s.pixel_error = worst;
   return s;
 }
 

@@ -20,6 +20,8 @@
 
 #include <Eigen/Core>
 
+#include <limits>
+
 namespace ibvs::sim::stages {
 
 /// What capture() found at one frame; -1 = no such point.
@@ -28,6 +30,9 @@ struct Sighting {
   int outside = -1;    ///< first point whose true projection is off the sensor or that the model cannot map
   bool sensed = true;  ///< Sensor::measure() succeeded
   int missing = -1;    ///< first point the sensor lost (a non-finite column)
+  /// Largest distance (measurement units) of a measured point from the goal's measurement
+  /// (teach()); NaN when not every point was measured.
+  double pixel_error = std::numeric_limits<double>::quiet_NaN();
 };
 
 class Measure {
@@ -59,8 +64,8 @@ class Measure {
   const Points& projected() const noexcept { return projected_; }  ///< the last capture's true projections
   auto true_depths(int s) const noexcept { return ring_depth_.row(s); }  ///< 1 x N true depths in slot s
   const Points& uv() const noexcept { return uv_; }  ///< the last view: 2 x N normalised points
-  /// teach()'s measurement of the goal (measurement units), until the first capture.
-  auto goal_measured() const noexcept { return measured(0); }
+  /// teach()'s measurement of the goal (measurement units).
+  const Points& goal_measured() const noexcept { return goal_; }
   int latency() const noexcept { return latency_; }
 
  private:
@@ -74,6 +79,7 @@ class Measure {
   Points measured_;        // 2 x N(L+1) ring of measurements
   RowMatrix ring_depth_;   // (L+1) x N ring of true depths
   Points uv_;              // 2 x N the controller's points
+  Points goal_;            // 2 x N the goal's measurement (teach)
 };
 
 }  // namespace ibvs::sim::stages
