@@ -131,7 +131,11 @@ def test_a_sweep_converges_by_tolerance_px(tmp_path):
     assert "tolerance_px = 1.5" in toml
     (tmp_path / "px.toml").write_text(toml)
     setup, _ = sw.resolve(tmp_path / "px.toml")
-    assert setup.tolerances() == (setup.tolerance, 1.5)
+    assert setup.tolerances() == (5e-3, 1.5)  # the file's two tests
+    # --tolerance-px alone on the command line (or tolerance_px= alone): the pixels alone decide
+    assert sw.resolve(EXAMPLE, tolerance_px=2.0)[0].tolerances() == (None, 2.0)
+    assert sw.resolve(EXAMPLE, tolerance_px=2.0, tolerance=1e-3)[0].tolerances() == (1e-3, 2.0)
+    assert sw.resolve(EXAMPLE)[0].tolerances() == (5e-3, None)
 
 
 # --------------------------------------------------------------------------- what a Result says

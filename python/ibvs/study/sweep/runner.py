@@ -4,6 +4,7 @@ its arguments."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from pathlib import Path
@@ -27,7 +28,8 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
     scenario: a Scenario, a built-in name ("free", "gantry"), a TOML file (str or Path ending
     in .toml), or None (world, default "free"). ranges and settings (gain, duration, depth,
     tolerance, tolerance_px, boundary_margin, boundary_gain, angle_wrap; None = the scenario's)
-    override the scenario's."""
+    override the scenario's; tolerance_px without tolerance replaces the scenario's tests by the
+    pixel test alone (give both for both)."""
     options: dict = {}
     if scenario is not None and world is not None:
         raise ValueError("world and scenario: give one or the other")
@@ -42,7 +44,10 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
                         f"{type(scenario).__name__}")
     if ranges is not None and not isinstance(ranges, Mapping):
         raise TypeError(f"ranges must be a mapping {{parameter: (lo, hi)}}, got {type(ranges).__name__}")
-    return scenario.replace(ranges=ranges, **settings), options
+    out = scenario.replace(ranges=ranges, **settings)
+    if settings.get("tolerance_px") is not None and settings.get("tolerance") is None:
+        out = dataclasses.replace(out, tolerance=None)  # the pixels alone decide (replace() skips None)
+    return out, options
 
 
 def sweep(
