@@ -189,17 +189,21 @@ distortion. width, height: image size in pixels.)")
       .def_static(
           "from_yaml",
           [](py::handle path, py::handle fps) {
-            const py::dict d = py::module_::import("ibvs.camera_files").attr("read")(path);
+            if (!fps.is_none()) real(fps, "fps");  // a bad type is refused before the file is read
+            const py::dict d = py::module_::import("ibvs.camera_files").attr("read")(path, fps);
             return CameraModel::from_opencv(k_arg(d["K"]), dist_arg(d["dist"]), real(d["width"], "image_width"),
                                             real(d["height"], "image_height"), boolean(d["fisheye"], "fisheye_model"),
-                                            real(fps, "fps"));
+                                            real(d["fps"], "fps"));
           },
-          py::arg("path"), py::arg("fps") = 60.0,
+          py::arg("path"), py::arg("fps") = py::none(),
           R"(From a calibration file: a ROS camera_info YAML (camera_matrix, distortion_model,
 distortion_coefficients, image_width, image_height) or an OpenCV calibration file written by
 cv::FileStorage (YAML, XML or JSON; camera_matrix, distortion_coefficients, image_width,
 image_height, optional fisheye_model). Read with OpenCV's cv2.FileStorage: needs
-pip install ".[vision]" from the ibvs repository root.)")
+pip install ".[vision]" from the ibvs repository root.
+
+fps, the frame rate (the simulator's control period is 1 / fps): the fps= given, else the file's
+own fps or frame_rate, else 60 with a UserWarning saying so (calibration files rarely state one).)")
       .def_static(
           "normalized", [](py::handle bounds, py::handle fps) {
             return CameraModel::normalized(real(bounds, "bounds"), real(fps, "fps"));

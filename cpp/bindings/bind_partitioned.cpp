@@ -42,9 +42,14 @@ Eigen::Map<const Points> checked_points(const CArray& a) {
 }
 
 // Segment indices: distinct ints in [0, N).
-std::pair<int, int> segment_indices(py::handle i, py::handle j, Eigen::Index n) {
+// Points i and j of uv, two distinct indices of two distinct points (segment_angle and its Jacobian
+// refuse the same inputs: in C++ both give NaN for coincident points).
+std::pair<int, int> segment_indices(py::handle i, py::handle j, const Eigen::Ref<const Points>& uv) {
+  const Eigen::Index n = uv.cols();
   const int a = int_in(i, "i", 0, n - 1), b = int_in(j, "j", 0, n - 1);
   if (a == b) throw py::value_error("i and j must be distinct point indices");
+  if ((uv.col(a) - uv.col(b)).squaredNorm() == 0.0)
+    throw py::value_error("uv: points i and j coincide (theta_z undefined)");
   return {a, b};
 }
 
@@ -120,7 +125,7 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
       [](py::handle uv, py::handle i, py::handle j) {
         const CArray a = as_array(uv, "uv");
         const auto p = checked_points(a);
-        const auto [k, l] = segment_indices(i, j, p.cols());
+        const auto [k, l] = segment_indices(i, j, p);
         return segment_angle(p, k, l);
       },
       py::arg("uv"), py::arg("i"), py::arg("j"), "theta_z: angle of the image segment from point i to point j.");
@@ -132,9 +137,7 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
         Eigen::VectorXd z;
         depths(depth, "depth", p.cols(), z);
         validate_depths(z, "depth", p.cols());
-        const auto [k, l] = segment_indices(i, j, p.cols());
-        if ((p.col(k) - p.col(l)).squaredNorm() == 0.0)
-          throw py::value_error("uv: points i and j coincide (theta_z undefined)");
+        const auto [k, l] = segment_indices(i, j, p);
         return Eigen::Matrix<double, 1, 6>(segment_angle_jacobian(p, z, k, l));
       },
       py::arg("uv"), py::arg("depth"), py::arg("i"), py::arg("j"), "(6,) d theta_z/dt = J @ v.");

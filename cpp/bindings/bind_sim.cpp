@@ -256,6 +256,9 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
   py::array_t<double> uvd({n, py::ssize_t{2}});
   std::copy_n(r.uv_desired.data(), 2 * n, uvd.mutable_data());
   d["uv_desired"] = uvd;
+  py::array_t<double> md({n, py::ssize_t{2}});
+  std::copy_n(r.measured_desired.data(), 2 * n, md.mutable_data());
+  d["measured_desired"] = md;
   d["depth_desired"] = Eigen::VectorXd(r.depth_desired);
   d["goal"] = Eigen::Matrix4d(r.goal);
   return d;
@@ -439,7 +442,7 @@ it stops the episode and is raised by run().)")
       "_run",
       [](py::handle servo, const CameraModel& camera, const Target& target, py::handle start, py::handle goal,
           py::handle robot, double duration, double noise, int latency, py::handle depth,
-          std::uint64_t seed, double tolerance, double max_depth_ratio, double max_error_ratio,
+          std::uint64_t seed, double tolerance, double tolerance_px, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain,
           double standoff_ratio, py::handle sensor) {
         EpisodeOptions o;
@@ -449,6 +452,7 @@ it stops the episode and is raised by run().)")
         o.depth = depth_mode(depth);
         o.seed = seed;
         o.tolerance = tolerance;
+        o.tolerance_px = tolerance_px;
         o.max_depth_ratio = max_depth_ratio;
         o.max_error_ratio = max_error_ratio;
         o.stop_on_singular = stop_on_singular;
@@ -520,7 +524,8 @@ it stops the episode and is raised by run().)")
       },
       py::arg("servo"), py::arg("camera"), py::arg("target"), py::arg("start"), py::arg("goal"),
       py::arg("robot") = py::none(), py::arg("duration") = 10.0, py::arg("noise") = 0.0, py::arg("latency") = 0,
-      py::arg("depth") = "exact", py::arg("seed") = 0, py::arg("tolerance") = 1e-4, py::arg("max_depth_ratio") = 10.0,
+      py::arg("depth") = "exact", py::arg("seed") = 0, py::arg("tolerance") = 1e-4,
+      py::arg("tolerance_px") = 0.0, py::arg("max_depth_ratio") = 10.0,
       py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
       py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1, py::arg("standoff_ratio") = 0.05,
       py::arg("sensor") = py::none(),

@@ -14,7 +14,10 @@ namespace ibvs {
 using Row6 = Eigen::Matrix<double, 1, 6>;
 
 double segment_angle(const Eigen::Ref<const Points>& uv, int i, int j) noexcept {
-  return std::atan2(uv(1, j) - uv(1, i), uv(0, j) - uv(0, i));
+  const double du = uv(0, j) - uv(0, i), dv = uv(1, j) - uv(1, i);
+  // Coincident points have no segment: NaN, as the Jacobian's 0 / 0 (atan2(0, 0) would say 0).
+  if (du == 0.0 && dv == 0.0) return std::numeric_limits<double>::quiet_NaN();
+  return std::atan2(dv, du);
 }
 
 Row6 segment_angle_jacobian(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& z, int i,

@@ -169,8 +169,10 @@ class CameraModel:
     ) -> CameraModel:
         """K (3, 3) pixels; dist (k1, k2, p1, p2[, k3]) or with fisheye (k1, k2, k3, k4)."""
     @staticmethod
-    def from_yaml(path: Union[str, os.PathLike[str]], fps: float = 60.0) -> CameraModel:
-        """ROS camera_info or OpenCV calibration file (needs the vision extra: pip install ".[vision]")."""
+    def from_yaml(path: Union[str, os.PathLike[str]], fps: float | None = None) -> CameraModel:
+        """ROS camera_info or OpenCV calibration file (needs the vision extra: pip install ".[vision]").
+
+        fps: the given one, else the file's fps or frame_rate, else 60 with a UserWarning."""
     @staticmethod
     def normalized(bounds: float = 0.3, fps: float = 60.0) -> CameraModel:
         """Paper Table I: unit focal length (pixels = normalised coordinates), sensor +-bounds, no
@@ -681,6 +683,7 @@ class sim:
         depth: str = "exact",
         seed: int = 0,
         tolerance: float = 1e-4,
+        tolerance_px: float = 0.0,
         max_depth_ratio: float = 10.0,
         max_error_ratio: float = 100.0,
         stop_on_singular: bool = True,

@@ -332,16 +332,25 @@ def _run_vision(frames, cv2, sim, vision) -> dict[str, Any]:
         out["cases"].append({"name": name, "median_ms": med, "p99_ms": float(np.percentile(t, 99)),
                              "max_ms": float(t.max()), "cpu_ms": cpu[name], "budget_share": med / FRAME_BUDGET_MS})
     per_frame = episode_ms / len(r.history)
+    # The episode is timed once, as a whole: its per-frame time is a mean, with no spread (None: not
+    # measured; JSON null, "n/a" in the table, with the reason in "why").
     out["cases"].append({"name": f"image episode, per frame ({len(r.history)} frames, gantry, dots)",
-                         "median_ms": per_frame, "p99_ms": float("nan"), "max_ms": float("nan"),
-                         "cpu_ms": episode_cpu_ms / len(r.history), "budget_share": per_frame / FRAME_BUDGET_MS})
-    # over the frames where every point was measured (lost: frames with a point lost)
+                         "median_ms": per_frame, "p99_ms": None, "max_ms": None,
+                         "cpu_ms": episode_cpu_ms / len(r.history), "budget_share": per_frame / FRAME_BUDGET_MS,
+                         "why": "the episode is timed once, as a whole: its median is the mean per frame, "
+                                "p99 and max are not measured"})
+    # over the frames where every point was measured (lost: frames with a point lost; None: every frame)
     for key, e in (("dot_error_px", errors), ("tag_error_px", tag_errors)):
         e = np.asarray(e)
-        out[key] = {"median": float(np.nanmedian(e)) if np.isfinite(e).any() else float("nan"),
-                    "max": float(np.nanmax(e)) if np.isfinite(e).any() else float("nan"),
+        out[key] = {"median": float(np.nanmedian(e)) if np.isfinite(e).any() else None,
+                    "max": float(np.nanmax(e)) if np.isfinite(e).any() else None,
                     "lost_frames": int(np.isnan(e).sum())}
     return out
+
+
+def _cell(x, width: int, digits: int = 3) -> str:
+    """A number, or n/a for None (not measured) or a non-finite value."""
+    return f"{x:{width}.{digits}f}" if x is not None and math.isfinite(x) else f"{'n/a':>{width}}"
 
 
 def _project(pose_wc, target) -> np.ndarray:
@@ -354,14 +363,22 @@ def format_vision(res: dict[str, Any]) -> str:
     lines = [f"vision, {res['frames']} frames, ms per frame: wall median / p99 / max, share of the "
              f"{res['budget_ms']:.1f} ms budget at 60 Hz, and the CPU time of this thread (mean)",
              f"  {'case':<58} {'median':>8} {'p99':>8} {'max':>8} {'budget':>7} {'cpu':>8}"]
+    why = []
     for c in res["cases"]:
-        lines.append(f"  {c['name']:<58} {c['median_ms']:8.3f} {c['p99_ms']:8.3f} {c['max_ms']:8.3f} "
-                     f"{100 * c['budget_share']:6.1f}% {c['cpu_ms']:8.3f}")
+        lines.append(f"  {c['name']:<58} {_cell(c['median_ms'], 8)} {_cell(c['p99_ms'], 8)} {_cell(c['max_ms'], 8)} "
+                     f"{100 * c['budget_share']:6.1f}% {_cell(c['cpu_ms'], 8)}")
+        if "why" in c:
+            why.append(f"  n/a: {c['name']}: {c['why']}")
     d, t = res["dot_error_px"], res["tag_error_px"]
-    lines.append(f"  detection error vs the true projection (px): dots median {d['median']:.3f} max {d['max']:.3f}"
-                 f" ({d['lost_frames']} frames with a dot lost); tag corners median {t['median']:.3f} max "
-                 f"{t['max']:.3f} ({t['lost_frames']} frames without the tag)")
-    return "\n".join(lines)
+
+    def error(e: dict, lost: str) -> str:
+        if e["median"] is None:
+            return f"n/a (every frame {lost})"
+        return f"median {e['median']:.3f} max {e['max']:.3f} ({e['lost_frames']} frames {lost})"
+
+    lines.append(f"  detection error vs the true projection (px): dots {error(d, 'with a dot lost')}; tag corners "
+                 f"{error(t, 'without the tag')}")
+    return "\n".join(lines + why)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -390,7 +407,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.vision:
         res = run_vision(args.frames)
-        print(json.dumps(res) if args.json else format_vision(res))
+        print(json.dumps(res, allow_nan=False) if args.json else format_vision(res))
         return 0
     res = run(args.iterations, args.n, args.damping, args.gain)
     print(json.dumps(res) if args.json else format_table(res))

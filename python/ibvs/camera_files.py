@@ -14,6 +14,10 @@ Two layouts, both read with OpenCV's cv2.FileStorage (the ``vision`` extra):
   calibration sample): the same keys, the matrices as ``!!opencv-matrix``, and an optional
   ``fisheye_model: 1`` instead of distortion_model.
 
+The frame rate (the simulator's control period is 1 / fps) is rarely in such files: read(path, fps)
+takes the fps given, else the file's own ``fps`` or ``frame_rate`` key, else DEFAULT_FPS with a
+UserWarning that says so.
+
 Why cv2.FileStorage and not PyYAML: OpenCV writes a ``%YAML:1.0`` directive and
 ``!!opencv-matrix`` tags that a standard YAML parser rejects, while FileStorage reads both
 OpenCV's files and plain YAML such as ROS's (a header is added to a file that lacks one, as
@@ -23,9 +27,16 @@ optional dependency covers both.
 
 from __future__ import annotations
 
+import math
 import os
+import warnings
 
 import numpy as np
+
+#: The frame rate from_yaml uses when neither its fps= nor the file states one (with a warning).
+DEFAULT_FPS = 60.0
+#: Keys of a frame rate in a calibration file, in the order they are looked for.
+FPS_KEYS = ("fps", "frame_rate")
 
 _FISHEYE = ("equidistant", "fisheye")
 _PLUMB_BOB = ("plumb_bob", "radtan", "rational_polynomial", "none", "")
@@ -68,8 +79,28 @@ def _number(fs, key: str, path: str) -> float:
     return float(node.real())
 
 
-def read(path) -> dict:
-    """K (3, 3), dist (n,), width, height and fisheye (bool) from a calibration file."""
+def _frame_rate(fs, path: str, fps):
+    """The fps given, else the file's (FPS_KEYS), else DEFAULT_FPS with a UserWarning."""
+    if fps is not None:
+        return fps
+    for key in FPS_KEYS:
+        node = fs.getNode(key)
+        if node.empty() or node.isNone():
+            continue
+        if not (node.isInt() or node.isReal()) or not (math.isfinite(node.real()) and node.real() > 0):
+            raise ValueError(f"path: {path}: '{key}' must be a frame rate > 0 (frames per second)")
+        return float(node.real())
+    # stacklevel 3: past read(), the caller of CameraModel.from_yaml (the C++ binding has no Python frame)
+    warnings.warn(f"CameraModel.from_yaml: {path} states no frame rate ({' or '.join(FPS_KEYS)}); the camera "
+                  f"runs at {DEFAULT_FPS:g} fps (pass fps=... to say which)", UserWarning, stacklevel=3)
+    return DEFAULT_FPS
+
+
+def read(path, fps=None) -> dict:
+    """K (3, 3), dist (n,), width, height, fisheye (bool) and fps from a calibration file.
+
+    fps: the frame rate to use (returned as given), or None: the file's fps or frame_rate, else
+    DEFAULT_FPS with a UserWarning naming the file."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
     path = os.fspath(path)
@@ -109,6 +140,7 @@ def read(path) -> dict:
             "width": _number(fs, "image_width", path),
             "height": _number(fs, "image_height", path),
             "fisheye": model in _FISHEYE or bool(flag),
+            "fps": _frame_rate(fs, path, fps),
         }
     finally:
         fs.release()

@@ -141,10 +141,25 @@ void bad_input() {
   expect(bad, z, uvd, "uv");
 }
 
+// Coincident points i and j have no segment: segment_angle and its Jacobian both give NaN (the
+// bindings refuse both with the same ValueError); any other pair, however close, a finite angle.
+void coincident_segment() {
+  Points uv(2, 3);
+  uv << 0.1, 0.1, -0.2, -0.05, -0.05, 0.3;
+  const Eigen::Vector3d z(1.0, 1.5, 2.0);
+  CHECK(std::isnan(segment_angle(uv, 0, 1)) && std::isnan(segment_angle(uv, 1, 0)));
+  CHECK(segment_angle_jacobian(uv, z, 0, 1).array().isNaN().all());
+  CHECK(std::isfinite(segment_angle(uv, 0, 2)) && segment_angle_jacobian(uv, z, 0, 2).allFinite());
+  uv(0, 1) = std::nextafter(0.1, 1.0);  // one ulp apart: a segment along +u
+  CHECK(segment_angle(uv, 0, 1) == 0.0 && segment_angle_jacobian(uv, z, 0, 1).allFinite());
+  CHECK_NEAR(segment_angle(uv, 1, 0), std::acos(-1.0), 1e-15);
+}
+
 }  // namespace
 
 void run_tests() {
   feature_jacobians_fd();
+  coincident_segment();
   first_step_structure();
   closed_loop();
   bad_input();

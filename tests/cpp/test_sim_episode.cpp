@@ -5,8 +5,10 @@
 #include "check.hpp"
 #include "sim_cases.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <limits>
 
 using namespace ibvs;
 using namespace ibvs::sim;
@@ -252,6 +254,39 @@ void noise_latency_depth_modes() {
   CHECK(a.history.frames == b.history.frames && a.history.uv == b.history.uv);  // seeded: identical
   CHECK(a.status.outcome == Outcome::timeout);  // noise keeps the error above 1e-5
   CHECK(a.metrics.final_translation_error < 2e-2);
+  // ... but every measured point comes within 1 px of its goal: converged by tolerance_px alone
+  // (tolerance inf), at the first frame whose worst point is within 1 px, as a tracker sees it.
+  EpisodeOptions op = o;
+  op.tolerance = std::numeric_limits<double>::infinity();
+  op.tolerance_px = 1.0;
+  const EpisodeResult p = run_episode(servo(Layout::stacked(4), 2.0), CameraModel::afma6(), gantry_target(g), g,
+                                      gantry_start(), gantry_goal(), op);
+  CHECK(p.status.outcome == Outcome::converged && p.metrics.frames_to_converge == p.status.frame);
+  CHECK(p.measured_desired.isApprox(a.measured_desired, 0.0));
+  const auto worst = [&](int k) {
+    double w = 0.0;
+    for (int i = 0; i < 4; ++i)
+      w = std::max(w, std::hypot(p.history.measured(k, 2 * i) - p.measured_desired(0, i),
+                                 p.history.measured(k, 2 * i + 1) - p.measured_desired(1, i)));
+    return w;
+  };
+  CHECK(worst(p.status.frame) <= 1.0);
+  for (int k = 0; k < p.status.frame; ++k) CHECK(worst(k) > 1.0);
+  // both tests: the pixels and an error norm of 1e-5, which the noise never lets pass
+  op.tolerance = 1e-5;
+  CHECK(run_episode(servo(Layout::stacked(4), 2.0), CameraModel::afma6(), gantry_target(g), g, gantry_start(),
+                    gantry_goal(), op).status.outcome == Outcome::timeout);
+  // refused: no test at all (tolerance inf without tolerance_px), a negative or NaN tolerance_px
+  op.tolerance = std::numeric_limits<double>::infinity();
+  op.tolerance_px = 0.0;
+  CHECK_THROWS(op.validate());
+  op.tolerance_px = -1.0;
+  CHECK_THROWS(op.validate());
+  op.tolerance_px = std::numeric_limits<double>::quiet_NaN();
+  CHECK_THROWS(op.validate());
+  op.tolerance = 1e-5;
+  op.tolerance_px = std::numeric_limits<double>::infinity();
+  CHECK_THROWS(op.validate());
   // Latency: the controller's first `latency` frames all see frame 0's image.
   o.noise = 0;
   o.latency = 5;

@@ -351,12 +351,35 @@ def ros_file(tmp_path, model="plumb_bob", coefficients=PLUMB_BOB, name="camera.y
 
 
 def test_from_ros_camera_info(tmp_path):
-    cam = ibvs.CameraModel.from_yaml(ros_file(tmp_path))
+    cam = ibvs.CameraModel.from_yaml(ros_file(tmp_path), fps=60)
     assert cam == ibvs.CameraModel.from_opencv(K, PLUMB_BOB, W, H)
     fe = ibvs.CameraModel.from_yaml(str(ros_file(tmp_path, "equidistant", FISHEYE)), fps=30.0)
     assert fe.distortion == "equidistant" and fe.coefficients == tuple(FISHEYE) and fe.fps == 30.0
-    rational = ibvs.CameraModel.from_yaml(ros_file(tmp_path, "rational_polynomial", [*PLUMB_BOB, 0, 0, 0]))
+    rational = ibvs.CameraModel.from_yaml(ros_file(tmp_path, "rational_polynomial", [*PLUMB_BOB, 0, 0, 0]), fps=60)
     assert rational == cam
+
+
+def test_from_yaml_says_which_frame_rate_it_uses(tmp_path):
+    """The fps given, else the file's fps or frame_rate, else 60 with a warning naming the file (never silently)."""
+    path = ros_file(tmp_path)
+    with pytest.warns(UserWarning, match=r"states no frame rate .* runs at 60 fps \(pass fps=") as caught:
+        assert ibvs.CameraModel.from_yaml(path).fps == 60.0
+    assert len(caught) == 1 and str(path) in str(caught[0].message)
+    assert caught[0].filename == __file__  # attributed to the caller of from_yaml
+    for key, value in (("fps", "30"), ("frame_rate", "25.5")):
+        path.write_text(ROS_YAML.format(model="plumb_bob", n=5, coefficients=", ".join(map(str, PLUMB_BOB)))
+                        + f"{key}: {value}\n")
+        assert ibvs.CameraModel.from_yaml(path).fps == float(value)  # no warning: the file says it
+        assert ibvs.CameraModel.from_yaml(path, fps=90).fps == 90.0  # the argument wins
+    for bad in ("0", "-30", "fast", ".nan"):
+        path.write_text(ROS_YAML.format(model="plumb_bob", n=5, coefficients=", ".join(map(str, PLUMB_BOB)))
+                        + f"fps: {bad}\n")
+        with pytest.raises(ValueError, match="'fps' must be a frame rate > 0"):
+            ibvs.CameraModel.from_yaml(path)
+    with pytest.raises(TypeError, match="fps"):
+        ibvs.CameraModel.from_yaml(path, fps="30")
+    with pytest.raises(ValueError, match="fps"):
+        ibvs.CameraModel.from_yaml(path, fps=-1.0)
 
 
 @pytest.mark.parametrize("ext", ["yaml", "xml", "json"])
@@ -370,9 +393,10 @@ def test_from_opencv_file_storage(tmp_path, ext):
         fs.write("fisheye_model", fisheye)
         fs.write("camera_matrix", K)
         fs.write("distortion_coefficients", dist)
+        fs.write("fps", 30)
         fs.release()
         cam = ibvs.CameraModel.from_yaml(path)
-        assert cam == ibvs.CameraModel.from_opencv(K, dist, W, H, fisheye=bool(fisheye))
+        assert cam == ibvs.CameraModel.from_opencv(K, dist, W, H, fisheye=bool(fisheye), fps=30)
 
 
 def test_calibration_file_errors(tmp_path):

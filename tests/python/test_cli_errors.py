@@ -79,7 +79,32 @@ def _bad(tmp_path) -> list:
         (["bench", "--damping", "nan"], "--damping"),
         (["reproduce", "--out", str(d / "file.txt")], "--out"),
         (["reproduce", "--out", str(d / "file.txt" / "below")], "--out"),
+        (["run", "--tolerance-px", "0"], "--tolerance-px"),
+        (["run", "--tolerance-px", "nan"], "--tolerance-px"),
+        (["sweep", "--out", out, "--tolerance-px", "-1"], "--tolerance-px"),
+        # output paths this process cannot write, whatever the permission bits say (root included): tried
+        *[(args, option) for args, option in _unwritable()],
     ]
+
+
+# Places no process can write into: /proc and /sys refuse new files, even to root (permission bits would not
+# tell: os.access says yes to root everywhere).
+UNWRITABLE = [p for p in ("/proc", "/sys") if Path(p).is_dir()]
+
+
+def _unwritable() -> list:
+    out = []
+    for place in UNWRITABLE:
+        out += [
+            (["sweep", "--out", f"{place}/ibvs.csv"], "--out"),
+            (["sweep", "--out", "s.csv", "--figure", f"{place}/ibvs.png"], "--figure"),
+            (["reproduce", "--out", f"{place}/ibvs-results"], "--out"),
+            (["reproduce", "--out", f"{place}/ibvs/results/deeper"], "--out"),
+            (["run", "--plot", f"{place}/ibvs.png"], "--plot"),
+            (["run", "--animate", f"{place}/ibvs.gif"], "--animate"),
+            (["run", "--video", f"{place}/ibvs.gif", "--vision", "dots"], "--video"),
+        ]
+    return out
 
 
 def test_every_bad_argument_exits_2_with_one_line_before_any_work(tmp_path, capsys):
@@ -95,6 +120,23 @@ def test_every_bad_argument_exits_2_with_one_line_before_any_work(tmp_path, caps
         assert len(lines) == 1 and word in lines[0] and "error" in lines[0], (args, err)
         assert out == "", args
         assert sorted(p.name for p in tmp_path.rglob("*")) == before, args  # nothing written
+
+
+@pytest.mark.skipif(not UNWRITABLE, reason="needs /proc or /sys")
+def test_unwritable_outputs_exit_2_with_one_line_through_the_command(tmp_path):
+    """The same through `python -m ibvs` (a process of its own): the option named, no traceback, exit 2."""
+    import ibvs
+
+    env = {**os.environ, "PYTHONPATH": str(Path(ibvs.__file__).parents[1])}  # this ibvs, from any directory
+    for args, option in _unwritable()[:4] + [(["reproduce"], "--out")]:
+        cwd = tmp_path
+        if args == ["reproduce"]:  # the default ./ibvs-results, in a directory nobody can write into
+            cwd = Path(UNWRITABLE[0])
+        r = _cli(*args, cwd=cwd, env=env)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and option in lines[0] and "Traceback" not in r.stderr, \
+            (args, r.stderr)
+        assert "cannot write" in lines[0], lines[0]
 
 
 def _cli(*args, **kw) -> subprocess.CompletedProcess:
@@ -138,7 +180,8 @@ def test_sweep_scenario_cli(tmp_path, capsys):
                  "--schemes", "polar", "cylindrical", "automatic", "--jobs", "1", "--quiet",
                  "--figure", str(tmp_path / "f.png")]) == 0
     text = capsys.readouterr().out
-    assert "| automatic |" in text and "timeout" in text.splitlines()[0] and "6 episodes" in text
+    assert "| automatic |" in text and "timeout" in text.splitlines()[0]
+    assert "2 episodes (6 rows: 3 schemes each)" in text and "converged: error norm < 0.005" in text
     assert (tmp_path / "f.png").stat().st_size > 10_000
 
 
@@ -182,10 +225,12 @@ def test_signal_stops_a_sweep_within_a_second(tmp_path, sig):
     assert elapsed < 1.0, elapsed
     assert p.returncode == (130 if sig == signal.SIGINT else 143)
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and "episodes saved" in lines[0] and "run the same command again" in lines[0], err
+    assert len(lines) == 1 and " saved in " in lines[0] and "run the same command again" in lines[0], err
     assert not any(_alive(w) for w in workers)
     saved = sw.load(out)
-    assert f"{len(saved)} of 6000 episodes saved" in lines[0]
+    # counted as asked for: episodes (start set-ups), and the rows they are (one per scheme)
+    done = sum(1 for i in {r["index"] for r in saved} if sum(r["index"] == i for r in saved) == 2)
+    assert f"{done} of 3000 episodes ({len(saved)} of 6000 rows: 2 schemes each) saved" in lines[0], lines[0]
     ids = [r["id"] for r in saved]
     assert len(ids) == len(set(ids)) and out.read_text().endswith("\n")
     # resuming runs the missing episodes first, and only them

@@ -37,6 +37,24 @@ def test_area_scale_and_angle_values():
     assert ibvs.segment_angle(GOOD, 0, 1) == pytest.approx(np.pi)
 
 
+def test_segment_angle_refuses_what_its_jacobian_refuses():
+    """Two coincident points have no segment: both refuse them with the same ValueError (segment_angle said 0.0)."""
+    uv = np.array([[0.1, -0.05], [0.1, -0.05], [-0.2, 0.3]])
+    messages = []
+    for call in (lambda: ibvs.segment_angle(uv, 0, 1), lambda: ibvs.segment_angle(uv, 1, 0),
+                 lambda: ibvs.segment_angle_jacobian(uv, [1.0, 1.5, 2.0], 0, 1)):
+        with pytest.raises(ValueError, match=r"^uv: points i and j coincide \(theta_z undefined\)$") as e:
+            call()
+        messages.append(str(e.value))
+    assert len(set(messages)) == 1
+    for call in (lambda: ibvs.segment_angle(uv, 0, 0), lambda: ibvs.segment_angle_jacobian(uv, 1.0, 2, 2)):
+        with pytest.raises(ValueError, match="distinct"):
+            call()
+    assert np.isfinite(ibvs.segment_angle(uv, 0, 2)) and np.isfinite(ibvs.segment_angle_jacobian(uv, 1.0, 0, 2)).all()
+    uv[1, 0] = np.nextafter(0.1, 1.0)  # one ulp apart: a segment
+    assert ibvs.segment_angle(uv, 0, 1) == 0.0 and np.isfinite(ibvs.segment_angle_jacobian(uv, 1.0, 0, 1)).all()
+
+
 def test_decoupled_laws_at_the_first_step():
     uv = np.array([[0.1, 0.09], [-0.12, 0.1], [-0.1, -0.1], [0.11, -0.13]])
     uvd = 2 * GOOD

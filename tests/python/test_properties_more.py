@@ -34,6 +34,16 @@ def refused_by_name(e: Exception, *names: str) -> bool:
 @settings(max_examples=80)
 @given(points(4), hnp.arrays(np.float64, 4, elements=DEPTH), st.integers(-1, 4), st.integers(-1, 4))
 def test_area_and_segment_features_finite_or_refused(uv, z, i, j):
+    # segment_angle refuses what its Jacobian refuses, but for the depths only the Jacobian takes
+    def refusal(call):
+        try:
+            call()
+        except (ValueError, TypeError) as e:
+            return str(e)
+        return None
+
+    if valid_depths(z):
+        assert refusal(lambda: ibvs.segment_angle(uv, i, j)) == refusal(lambda: ibvs.segment_angle_jacobian(uv, z, i, j))
     for name, call in [
         ("area_scale", lambda: ibvs.area_scale(uv)),
         ("area_scale_jacobian", lambda: ibvs.area_scale_jacobian(uv, z)),
@@ -138,7 +148,8 @@ RUN_NUMBER = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
 VALID = {
     "duration": lambda x: 0 < x < np.inf and 1 <= math.floor(x * CASE.camera.fps + 0.5) <= 1e7,
     "noise": lambda x: 0 <= x < np.inf,
-    "tolerance": lambda x: 0 <= x < np.inf,
+    "tolerance": lambda x: x is None or 0 <= x < np.inf,
+    "tolerance_px": lambda x: x is None or 0 < x < np.inf,
     "depth_scale": lambda x: 1e-3 <= x <= 1e3,
     "boundary_margin": lambda x: 0 <= x < np.inf,
     "boundary_gain": lambda x: 0 <= x < np.inf,
@@ -151,8 +162,9 @@ VALID = {
 
 
 @settings(max_examples=60)
-@given(st.sampled_from(["duration", "noise", "tolerance", "depth_scale", "boundary_margin", "boundary_gain",
-                        "standoff_ratio", "max_depth_ratio", "max_error_ratio", "latency", "seed"]), RUN_NUMBER)
+@given(st.sampled_from(["duration", "noise", "tolerance", "tolerance_px", "depth_scale", "boundary_margin",
+                        "boundary_gain", "standoff_ratio", "max_depth_ratio", "max_error_ratio", "latency", "seed"]),
+       RUN_NUMBER)
 def test_sim_run_arguments_finite_or_refused(name, value):
     """One argument of sim.run at a time, anything; a short run (at most 0.2 s simulated)."""
     kwargs = dict(duration=0.2)
@@ -166,7 +178,8 @@ def test_sim_run_arguments_finite_or_refused(name, value):
         real = isinstance(value, (int, float)) and not isinstance(value, bool)
         assert not real or not VALID[name](kwargs[name]), (name, value, "refused inside the documented range", e)
         return
-    assert not isinstance(value, (bool, complex, str)) and value is not None, (name, value)
+    optional = name in ("tolerance", "tolerance_px")  # None: not tested (tolerance: 1e-4 without tolerance_px)
+    assert not isinstance(value, (bool, complex, str)) and (value is not None or optional), (name, value)
     assert VALID[name](kwargs[name]), (name, value, "accepted outside the documented range")
     assert np.isfinite(r.history.twist).all() and np.isfinite(r.metrics.path_length), (name, value)
 

@@ -100,7 +100,7 @@ def test_example_file_and_its_table(tmp_path):
     for t in table:
         if t["n"]:
             assert math.isclose(sum(t[o] for o in t["outcomes"]), 1.0)
-    assert "peak ‖T‖ (m/s)" in text and "retreat (m)" in text
+    assert "peak commanded ‖T‖ (m/s)" in text and "peak camera ‖T‖ (m/s)" in text and "retreat (m)" in text
 
 
 def test_an_outcome_added_later_gets_its_column(monkeypatch):

@@ -72,7 +72,9 @@ def test_aggregate_and_table():
         assert sum(t[o] for o in t["outcomes"]) == pytest.approx(1)  # every outcome has its column
     text = sw.format_table(table)
     assert all(o in text.splitlines()[0] for o in sim.OUTCOMES)
-    assert text.count("\n") == 5 and "| polar | [90, 180] | 1 | 100.0 %" in text
+    assert text.count("\n|") == 5 and "| polar | [90, 180] | 1 | 100.0 %" in text
+    # no nan, no empty cell: n/a, and why under the table (Cartesian IBVS never converged past 90 deg)
+    assert "nan" not in text and "|  |" not in text and "n/a (time (s)): no episode of the bin converged" in text
     with pytest.raises(ValueError, match="by"):
         sw.aggregate(rows, by="nope")
     with pytest.raises(ValueError, match="bins"):
@@ -178,7 +180,7 @@ def test_cli(tmp_path, capsys):
     assert main(["sweep", "--out", str(out), "--episodes", "3", "--schemes", "polar", "cartesian", "--duration", "4",
                  "--jobs", "1", "--quiet", "--range", "rz_deg=0:90", "--bin-width", "45"]) == 0
     text = capsys.readouterr().out
-    assert "| polar | [0, 45)" in text and "6 episodes" in text
+    assert "| polar | [0, 45)" in text and "3 episodes (6 rows: 2 schemes each) in" in text
     assert all(o in text for o in ("diverged", "timeout", "target_backside", "collision"))
     for bad in (["sweep"], ["sweep", "--out", str(out), "--episodes", "-3"], ["sweep", "--out", str(out), "--schemes", "x"],
                 ["sweep", "--out", str(out), "--range", "tx=1:0"], ["sweep", "--out", str(out), "--range", "bogus=0:1"],

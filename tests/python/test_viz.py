@@ -152,7 +152,7 @@ def test_image_limits_and_sweep_summary():
     titles = _titles(fig)
     for o in sim.OUTCOMES:
         assert f"{o} (%)" in titles
-    assert "median peak ‖T‖ (m/s)" in titles
+    assert "median peak commanded ‖T‖ (m/s)" in titles and "median peak camera ‖T‖ (m/s)" in titles
     with pytest.raises(ValueError, match="table"):
         viz.sweep_summary([])
 

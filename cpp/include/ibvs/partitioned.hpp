@@ -22,9 +22,10 @@
 
 namespace ibvs {
 
-/// theta_z: angle of the image segment from point i to point j, in (-pi, pi].
+/// theta_z: angle of the image segment from point i to point j, in (-pi, pi]; NaN when the two
+/// points coincide (no segment, theta_z undefined), as its Jacobian.
 double segment_angle(const Eigen::Ref<const Points>& uv, int i, int j) noexcept;
-/// Its 1x6 Jacobian (d theta_z / dt = J v) at depths z.
+/// Its 1x6 Jacobian (d theta_z / dt = J v) at depths z; NaN when points i and j coincide.
 Eigen::Matrix<double, 1, 6> segment_angle_jacobian(const Eigen::Ref<const Points>& uv,
                                                    const Eigen::Ref<const Eigen::VectorXd>& z, int i, int j) noexcept;
 /// sigma = sqrt(|polygon area|) of the points taken in order.

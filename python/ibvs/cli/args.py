@@ -1,6 +1,7 @@
 """Command-line argument checks: every bad argument is refused by the parser, before any work,
 with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`);
-and the options that several commands share (their help texts, --angle-wrap)."""
+every output path is tried for writing there (out_file, out_dir); and the options that several
+commands share (their help texts, --angle-wrap, --tolerance-px)."""
 
 from __future__ import annotations
 
@@ -35,8 +36,34 @@ def number(lo: float, hi: float, *, open_lo: bool = False, integer: bool = False
     return parse
 
 
-def _writable_dir(d: Path) -> bool:
-    return d.is_dir() and os.access(d, os.W_OK | os.X_OK)
+def _cannot_write(p: Path):
+    """Why this process cannot write file p (None if it can): tried, not guessed from permission
+    bits, which say yes to root everywhere and know nothing of read-only or virtual file systems
+    (/proc, /sys). An existing file is opened for appending (not changed); a new one is created
+    and removed again."""
+    try:
+        if p.exists():
+            with open(p, "ab"):
+                pass
+        else:
+            os.close(os.open(p, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            os.unlink(p)
+    except OSError as e:
+        return e.strerror or type(e).__name__
+    return None
+
+
+def _cannot_write_into(d: Path):
+    """Why this process cannot create files in directory d (None if it can), by creating one."""
+    import tempfile
+
+    try:
+        fd, name = tempfile.mkstemp(prefix=".ibvs-write-check-", dir=d)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as e:
+        return e.strerror or type(e).__name__
+    return None
 
 
 def out_file(*suffixes: str):
@@ -52,8 +79,11 @@ def out_file(*suffixes: str):
         parent = p.parent if str(p.parent) else Path(".")
         if not parent.exists():
             raise argparse.ArgumentTypeError(f"directory {str(parent)!r} does not exist")
-        if not _writable_dir(parent) or (p.exists() and not os.access(p, os.W_OK)):
-            raise argparse.ArgumentTypeError(f"cannot write {text!r}")
+        if not parent.is_dir():
+            raise argparse.ArgumentTypeError(f"cannot write {text!r}: {str(parent)!r} is not a directory")
+        why = _cannot_write(p)
+        if why is not None:
+            raise argparse.ArgumentTypeError(f"cannot write {text!r} ({why})")
         return p
 
     parse.__name__ = "file"
@@ -66,10 +96,13 @@ def out_dir(text: str) -> Path:
     if p.exists() and not p.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is a file, not a directory")
     existing = p
-    while not existing.exists():
+    while not existing.exists() and existing != existing.parent:
         existing = existing.parent
-    if not _writable_dir(existing):
-        raise argparse.ArgumentTypeError(f"cannot write into {str(existing)!r}")
+    if not existing.is_dir():
+        raise argparse.ArgumentTypeError(f"cannot write into {text!r}: {str(existing)!r} is not a directory")
+    why = _cannot_write_into(existing)
+    if why is not None:
+        raise argparse.ArgumentTypeError(f"cannot write into {str(existing.absolute())!r} ({why})")
     return p
 
 
@@ -128,7 +161,21 @@ NOISE_HELP = ("std of the Gaussian noise added to the measured image points, in 
               "world's normalised camera (default 0)")
 DEPTH_HELP = ("depth the controller is given: exact (true depths), pose (from a planar pose estimate), desired "
               "(the constant goal depths) or estimated (online, per point, from the camera's motion)")
-TOLERANCE_HELP = "converged when the servo's feature-error norm is below this (normalised units; default 1e-5)"
+TOLERANCE_HELP = ("converged when the servo's feature-error norm is below this (normalised units; default 1e-5, "
+                  "none with --tolerance-px alone)")
+TOLERANCE_PX_HELP = ("converged when every measured point (as a tracker sees it) is within this distance of its goal, "
+                     "in measurement units: pixels for a pixel camera, normalised units for the free world's camera; "
+                     "with --tolerance too, both must hold")
+#: The error-norm tolerance when neither --tolerance nor --tolerance-px is given.
+DEFAULT_TOLERANCE = 1e-5
+
+
+def tolerance_of(args, default=DEFAULT_TOLERANCE):
+    """The error-norm tolerance of parsed arguments: --tolerance, else none with --tolerance-px
+    (the pixels alone decide), else `default`."""
+    if args.tolerance is not None:
+        return args.tolerance
+    return None if args.tolerance_px is not None else default
 #: Largest seed (the simulator's noise generator takes a non-negative int64).
 SEED_MAX = 2**63 - 1
 

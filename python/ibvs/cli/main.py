@@ -6,8 +6,10 @@
     ibvs sweep --out F.csv [--scenario S.toml]    thousands of episodes per scheme, aggregate tables
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
-Every bad argument exits with status 2 and one line before any work starts. An interrupted
-sweep (Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume.
+Every bad argument exits with status 2 and one line before any work starts; every output path
+(--out, --plot, --animate, --video, --figure) is tried for writing then. An interrupted sweep
+(Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
+sweep whose Dask scheduler dies (exit status 1).
 
 Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
 sweep`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
@@ -17,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import ibvs
 
@@ -35,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("reproduce", help="run every experiment of the paper; write figures and a summary",
                        description="Run every experiment of the paper (Figs. 1-8), write PNG figures, summary.md and "
                                    "summary.csv, and print the summary table.")
-    r.add_argument("--out", type=a.out_dir, default=Path("ibvs-results"),
+    r.add_argument("--out", type=a.out_dir, default="ibvs-results",  # a string: checked by out_dir too
                    help="output directory (default ./ibvs-results; created if missing)")
     r.add_argument("--quick", action="store_true", help="small, fast figures (for CI); the simulations are the same")
     a.add_angle_wrap(r, "consistent")

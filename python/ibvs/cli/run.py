@@ -48,7 +48,8 @@ def add_parser(sub) -> None:
     one.add_argument("--duration", type=a.number(0, 3600, open_lo=True), metavar="SECONDS",
                      help="episode length in seconds, at most 3600 (default per world)")
     one.add_argument("--depth", choices=["exact", "pose", "desired", "estimated"], help=a.DEPTH_HELP)
-    one.add_argument("--tolerance", type=a.number(0, 1e6), default=1e-5, help=a.TOLERANCE_HELP)
+    one.add_argument("--tolerance", type=a.number(0, 1e6), help=a.TOLERANCE_HELP)
+    one.add_argument("--tolerance-px", type=a.number(0, 1e6, open_lo=True), metavar="PX", help=a.TOLERANCE_PX_HELP)
     a.add_angle_wrap(one, "consistent")
 
 
@@ -93,27 +94,28 @@ def command(args) -> int:
             a.fail(prog, f"argument --vision: {e}")
     case_obj, result = reproduce.run_one(args.world, case, args.scheme, duration=duration, noise=args.noise,
                                          latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
-                                         tolerance=args.tolerance, case_object=c, angle_wrap=args.angle_wrap,
-                                         vision=sensor)
+                                         tolerance=a.tolerance_of(args), tolerance_px=args.tolerance_px,
+                                         case_object=c, angle_wrap=args.angle_wrap, vision=sensor)
     row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
     from ..study.schemes import TITLES
 
     wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
     title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}{wrap}"
     print(title)
-    for name, value in zip(reproduce.Row.HEADERS[3:], row.cells()[3:]):
-        if name != "paper":
-            print(f"  {name:18s} {value}")
+    lines = row.report()
+    width = max(len(name) for name, _ in lines)
+    for name, value in lines:
+        print(f"  {name:{width}s}  {value}")
     if args.plot:
         from .. import viz
 
         viz.episode(result, title=title).savefig(args.plot, dpi=90)
-        print(f"  figure             {args.plot}")
+        print(f"  {'figure':{width}s}  {args.plot}")
     if args.animate:
         from .. import viz
 
         n = viz.animate(result, args.animate, labels=[title], speed=args.speed)
-        print(f"  animation          {args.animate} ({n} frames)")
+        print(f"  {'animation':{width}s}  {args.animate} ({n} frames)")
     if args.video:
         from .. import vision
 
@@ -121,5 +123,5 @@ def command(args) -> int:
         pixels = result.history.measured
         desired = cam.project(result.uv_desired)
         written = vision.write_video(args.video, sensor.frames, pixels, desired, fps=cam.fps)
-        print(f"  video              {written} ({len(sensor.frames)} frames)")
+        print(f"  {'video':{width}s}  {written} ({len(sensor.frames)} frames)")
     return 0 if result.status.outcome == "converged" else 1

@@ -1,6 +1,7 @@
 """`ibvs sweep`: many episodes per scheme from a built-in world or a scenario file, appended to a
 CSV (resumable), aggregated into a table and a figure. Ctrl-C and SIGTERM stop it and keep every
-finished row."""
+finished row; so does a Dask scheduler that dies. Progress and the final counts are in episodes (start
+set-ups) as --episodes asks for them, with the rows they are (one per scheme)."""
 
 from __future__ import annotations
 
@@ -78,6 +79,8 @@ def add_parser(sub) -> None:
                    help="seconds per episode")
     w.add_argument("--tolerance", type=a.number(0, 1e6), help=a.TOLERANCE_HELP.replace("default 1e-5", "default per "
                                                                                      "scenario"))
+    w.add_argument("--tolerance-px", type=a.number(0, 1e6, open_lo=True), metavar="PX",
+                   help=a.TOLERANCE_PX_HELP + " (default per scenario: none)")
     w.add_argument("--boundary-margin", type=a.number(0, 1e6),
                    help="image-boundary potential margin (measurement units; 0 = off)")
     w.add_argument("--boundary-gain", type=a.number(0, 1e6), help="image-boundary potential gain")
@@ -94,6 +97,17 @@ def add_parser(sub) -> None:
     w.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _saved(out, spec) -> str:
+    """What the CSV holds of the sweep asked for: "N of E episodes (M of R rows: K schemes each)"."""
+    from ..study import sweep as sw
+    from ..study.sweep.progress import count, tally
+
+    wanted = set(spec.schemes)
+    rows, complete = tally((r["index"] for r in sw.load(out, spec.config())
+                            if r["scheme"] in wanted and r["index"] < spec.size), len(spec.schemes))
+    return count(spec.size, len(spec.schemes), rows, complete)
+
+
 class _Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that the sweep stops as on Ctrl-C."""
 
@@ -103,14 +117,14 @@ def _on_sigterm(signum, frame):
 
 
 def command(args) -> int:
-    """Run `ibvs sweep`; the exit status (130 on Ctrl-C, 143 on SIGTERM)."""
+    """Run `ibvs sweep`; the exit status (130 on Ctrl-C, 143 on SIGTERM, 1 when the Dask scheduler is lost)."""
     from ..study import sweep as sw
 
     prog = "ibvs sweep"
     if args.range and args.grid:
         a.fail(prog, "--range and --grid cannot be combined")
     settings = dict(gain=args.gain, duration=args.duration, depth=args.depth, tolerance=args.tolerance,
-                    boundary_margin=args.boundary_margin, boundary_gain=args.boundary_gain,
+                    tolerance_px=args.tolerance_px, boundary_margin=args.boundary_margin, boundary_gain=args.boundary_gain,
                     angle_wrap=args.angle_wrap)
     try:  # everything is checked here, before any episode runs
         setup, options = sw.resolve(args.scenario, world=args.world, ranges=dict(args.range) or None, **settings)
@@ -122,7 +136,6 @@ def command(args) -> int:
         sw.load(args.out, spec.config())
     except (ValueError, TypeError, OSError) as e:
         a.fail(prog, e)
-    total = spec.size * len(spec.schemes)
     old = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         rows = sw.sweep(args.out, scenario=setup, episodes=spec.episodes, seed=spec.seed, schemes=spec.schemes,
@@ -130,11 +143,13 @@ def command(args) -> int:
                         progress=not args.quiet)
     except KeyboardInterrupt as e:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        saved = len(sw.load(args.out, spec.config()))
         what = "SIGTERM" if isinstance(e, _Terminated) else "interrupted"
-        a.say(prog, f"{what}: {saved} of {total} episodes saved in {args.out}; run the same command again to "
-                    f"resume")
+        a.say(prog, f"{what}: {_saved(args.out, spec)} saved in {args.out}; run the same command again to resume")
         return 143 if isinstance(e, _Terminated) else 130
+    except sw.SchedulerLost as e:
+        a.say(prog, f"{e}: {_saved(args.out, spec)} saved in {args.out}; start a scheduler (and its workers) and "
+                    f"run the same command again to resume")
+        return 1
     except (ValueError, TypeError, ConnectionError, ImportError) as e:
         a.fail(prog, e)
     finally:
@@ -142,7 +157,9 @@ def command(args) -> int:
             signal.signal(signal.SIGTERM, old)
     table = sw.aggregate(rows, bins=sw.bins_for(rows, width=args.bin_width))
     print(sw.format_table(table))
-    print(f"\n{len(rows)} episodes in {args.out}")
+    k = len(spec.schemes)
+    print(f"\nconverged: {setup.criterion()}")
+    print(f"{spec.size} episodes ({len(rows)} rows: {k} scheme{'s' if k != 1 else ''} each) in {args.out}")
     print(sw.format_starts(rows))
     if args.figure:
         sw.figure(table, args.figure)

@@ -3,13 +3,14 @@ comes back in a Result."""
 
 from __future__ import annotations
 
+import math
 from typing import Optional, Union
 
 import numpy as np
 
 from .._core import CameraModel, PartitionedServo, Servo
 from .._core import sim as _sim
-from .result import History, Metrics, Result, RunStatus
+from .result import History, Metrics, Result, RunStatus, peak_speeds
 
 # The simulator's parts under their ibvs.sim names (the native classes themselves).
 Camera = CameraModel  # the simulator's camera is the core's CameraModel (the same class)
@@ -69,7 +70,8 @@ def run(
     latency: int = 0,
     depth: str = "exact",
     seed: int = 0,
-    tolerance: float = 1e-4,
+    tolerance: Optional[float] = None,
+    tolerance_px: Optional[float] = None,
     max_depth_ratio: float = 10.0,
     max_error_ratio: float = 100.0,
     stop_on_singular: bool = True,
@@ -106,7 +108,13 @@ def run(
     depth_scale: in [1e-3, 1e3], multiplies the depth given to the controller (a depth calibration
         error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).
-    tolerance: converged when the servo's error norm is below this.
+    tolerance: converged when the servo's error norm (of its features: normalised coordinates,
+        and radians for theta rows) is below this; default 1e-4 without tolerance_px, else none.
+    tolerance_px: None, or converged when every point of the frame's measurement (the points as
+        the sensor or a tracker reports them, before latency: History.measured) lies within this
+        distance of the goal's measurement (Result.measured_desired), in measurement units
+        (pixels; normalised units for Camera.normalized): e.g. 1 with 0.5 px of noise, where no
+        error-norm tolerance can be met. With both given, converged needs both.
     max_depth_ratio, max_error_ratio: diverged when the target's depth or the error norm
         exceeds this multiple of its start value.
     stop_on_singular: end with "singular" when the servo reports a rank-deficient J.
@@ -144,6 +152,17 @@ def run(
         vision = _vision.ImageSensor.for_target(camera, target, vision)
     elif vision is not None and not isinstance(vision, Sensor):
         raise TypeError(f"vision must be None, 'dots', 'tag' or an ibvs.sim.Sensor, got {type(vision).__name__}")
+    if tolerance_px is not None:
+        tolerance_px = _real(tolerance_px, "tolerance_px")
+        if not (math.isfinite(tolerance_px) and tolerance_px > 0):
+            raise ValueError(f"tolerance_px must be a finite number > 0 (measurement units: pixels), or None for no "
+                             f"pixel test, got {tolerance_px!r}")
+    if tolerance is not None:
+        tolerance = _real(tolerance, "tolerance")
+        if not (math.isfinite(tolerance) and tolerance >= 0):
+            raise ValueError(f"tolerance must be a finite number >= 0, or None, got {tolerance!r}")
+    elif tolerance_px is None:
+        tolerance = 1e-4
     d = _sim._run(
         servo,
         camera,
@@ -156,7 +175,8 @@ def run(
         latency=int(latency),
         depth=depth,
         seed=int(seed),
-        tolerance=_real(tolerance, "tolerance"),
+        tolerance=math.inf if tolerance is None else tolerance,
+        tolerance_px=0.0 if tolerance_px is None else tolerance_px,
         max_depth_ratio=_real(max_depth_ratio, "max_depth_ratio"),
         max_error_ratio=_real(max_error_ratio, "max_error_ratio"),
         stop_on_singular=_bool(stop_on_singular, "stop_on_singular"),
@@ -167,13 +187,6 @@ def run(
         sensor=vision,
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
-    metrics = Metrics(
-        d["frames_to_converge"],
-        d["camera_retreat"],
-        d["path_length"],
-        d["final_translation_error"],
-        d["final_rotation_error"],
-    )
     history = History(
         d["time"],
         d["pose"],
@@ -190,5 +203,14 @@ def run(
         d["measured"],
         d["projected"],
     )
+    metrics = Metrics(
+        d["frames_to_converge"],
+        d["camera_retreat"],
+        d["path_length"],
+        d["final_translation_error"],
+        d["final_rotation_error"],
+        *peak_speeds(history),
+    )
     return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
-                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision)
+                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision,
+                  tolerance=tolerance, tolerance_px=tolerance_px, measured_desired=d["measured_desired"])

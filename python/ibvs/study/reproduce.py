@@ -17,12 +17,14 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import ClassVar, Optional
 
 import numpy as np
 
 import ibvs
 
 from .. import sim
+from ..sim.result import measurement_unit
 from . import schemes
 from .scenario import ANGLE_WRAPS  # the angle wraps of ibvs.Servo
 
@@ -76,7 +78,18 @@ def wrap_label(scheme: str, angle_wrap: str) -> str:
 
 @dataclass
 class Row:
-    """One line of the summary."""
+    """One line of the summary (and of `ibvs run`'s report).
+
+    status: the outcome; event: the point or joint it names ("none" when it names neither);
+    frames / time_s: when it converged (-1 / NaN if it did not); error_norm: the servo's error
+    norm at the frame the episode ended (the frame convergence was declared at, if it was),
+    tolerance its tolerance (NaN: not tested); pixel_error: the worst measured point's
+    distance from its goal at that frame (measurement units: `unit`), tolerance_px its
+    tolerance (NaN: not tested); peak_v / peak_w: the peaks of the commanded twist (m/s,
+    rad/s); peak_v_camera / peak_w_camera: the peak speeds the camera actually moved at, from
+    its poses (on a robot, within its joint speed limits); final_t_mm / final_r_deg: the pose
+    error at the last frame; joint_limit: the joint reached ("no"; "" in free flight, which
+    has no joints)."""
 
     world: str
     case: str
@@ -94,23 +107,101 @@ class Row:
     joint_limit: str
     figure: str
     angle_wrap: str = "consistent"
+    peak_v_camera: float = math.nan
+    peak_w_camera: float = math.nan
+    error_norm: float = math.nan
+    tolerance: float = math.nan
+    pixel_error: float = math.nan
+    tolerance_px: float = math.nan
+    unit: str = "px"
+    judgement: str = ""  # the judged quantities beside their tolerances (ibvs.sim.Result.judged)
+    end_frame: int = -1  # the frame the episode ended at
 
     COLUMNS = (
-        "world", "case", "scheme", "status", "event", "frames", "time_s", "retreat_m", "path_m",
-        "peak_v", "peak_w", "final_t_mm", "final_r_deg", "joint_limit", "figure", "angle_wrap",
+        "world", "case", "scheme", "status", "event", "frames", "time_s", "error_norm", "tolerance", "pixel_error",
+        "tolerance_px", "retreat_m", "path_m", "peak_v", "peak_w", "peak_v_camera", "peak_w_camera", "final_t_mm",
+        "final_r_deg", "joint_limit", "figure", "angle_wrap",
     )
-    HEADERS = (
-        "world", "case", "scheme", "status", "event", "frames to converge", "time (s)", "retreat (m)", "path (m)",
-        "peak ‖v‖ (m/s)", "peak ‖ω‖ (rad/s)", "final Δp (mm)", "final Δθ (°)", "joint limit", "paper",
-        "angle wrap",
-    )
+    #: Column headers of the printed tables (the pixel columns only where a row has a tolerance_px).
+    HEADERS: ClassVar[dict] = {
+        "world": "world", "case": "case", "scheme": "scheme", "status": "status", "event": "event",
+        "frames": "frames to converge", "time_s": "time (s)", "error_norm": "error norm at the end",
+        "tolerance": "tolerance", "pixel_error": "worst point at the end", "tolerance_px": "tolerance_px",
+        "retreat_m": "retreat (m)", "path_m": "path (m)", "peak_v": "peak commanded ‖v‖ (m/s)",
+        "peak_w": "peak commanded ‖ω‖ (rad/s)", "peak_v_camera": "peak camera ‖v‖ (m/s)",
+        "peak_w_camera": "peak camera ‖ω‖ (rad/s)", "final_t_mm": "Δp at the last frame (mm)",
+        "final_r_deg": "Δθ at the last frame (°)", "joint_limit": "joint limit", "figure": "paper",
+        "angle_wrap": "angle wrap",
+    }
+    #: Why a cell says n/a, per column (the printed tables never show an empty cell or nan).
+    NOT_APPLICABLE: ClassVar[dict] = {
+        "frames": "not converged", "time_s": "not converged", "error_norm": "never computed",
+        "tolerance": "not tested", "pixel_error": "a point not measured", "tolerance_px": "not tested",
+        "peak_v": "no twist commanded", "peak_w": "no twist commanded",
+        "peak_v_camera": "the camera never moved (one frame)", "peak_w_camera": "the camera never moved (one frame)",
+        "joint_limit": "free-flying camera, no joints", "figure": "no figure of the paper",
+        "angle_wrap": "the scheme has no θ rows to wrap",
+    }
 
-    def cells(self) -> list[str]:
-        out = []
-        for name in self.COLUMNS:
-            x = getattr(self, name)
-            out.append(f"{x:.4g}" if isinstance(x, float) else str(x))
+    def converged(self) -> bool:
+        return self.status == "converged"
+
+    def columns(self, pixels: Optional[bool] = None) -> list[str]:
+        """The printed columns: COLUMNS without the pixel ones unless `pixels` (default: this row
+        has a tolerance_px)."""
+        pixels = math.isfinite(self.tolerance_px) if pixels is None else pixels
+        return [c for c in self.COLUMNS if pixels or c not in ("pixel_error", "tolerance_px")]
+
+    def value(self, name: str) -> Optional[str]:
+        """The cell of column `name`, or None where it does not apply (see NOT_APPLICABLE)."""
+        x = getattr(self, name)
+        if name == "frames" and x < 0 or name in ("joint_limit", "figure") and x == "" \
+                or name == "angle_wrap" and x == "-":
+            return None
+        if isinstance(x, float):
+            return f"{x:.4g}" if math.isfinite(x) else None
+        return str(x)
+
+    def cells(self, pixels: Optional[bool] = None) -> list[str]:
+        """The printed cells: "n/a" where a value does not apply (format_rows says why)."""
+        return [v if v is not None else "n/a" for v in (self.value(c) for c in self.columns(pixels))]
+
+    def report(self) -> list[tuple[str, str]]:
+        """(label, text) lines of `ibvs run`: every value with its unit and, where it does not
+        apply, n/a and why; the status says what converged means and the error it was judged on
+        (`judgement`)."""
+        if self.converged():
+            status = f"converged at frame {self.frames}: {self.judgement}"
+        else:
+            status = f"{self.status} at frame {self.end_frame}, not converged: {self.judgement}"
+        robot = self.joint_limit != ""
+        notes = {
+            "peak_v": "the controller's twist" + (", before the robot's joint speed limits" if robot else ""),
+            "peak_v_camera": ("how fast the robot moved the camera" if robot else "how fast the camera moved")
+                             + ", from its poses",
+        }
+        out = [("status", status)]
+        for name in self.columns(False):
+            if name in ("world", "case", "scheme", "status", "figure", "error_norm", "tolerance"):
+                continue
+            v = self.value(name)
+            text = f"n/a ({self.NOT_APPLICABLE[name]})" if v is None else v
+            if v is not None and name in notes:
+                text += f"  ({notes[name]})"
+            out.append((self.HEADERS[name], text))
         return out
+
+
+def format_rows(rows: list[Row]) -> str:
+    """A Markdown table of rows, and a line saying why cells say n/a (if any does)."""
+    pixels = any(math.isfinite(r.tolerance_px) for r in rows)
+    columns = rows[0].columns(pixels) if rows else list(Row.COLUMNS)
+    lines = ["| " + " | ".join(Row.HEADERS[c] for c in columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(row.cells(pixels)) + " |" for row in rows]
+    why = {c: Row.NOT_APPLICABLE[c] for c in columns for r in rows if r.value(c) is None}
+    if why:
+        lines += ["", "n/a: " + "; ".join(f"{Row.HEADERS[c]}: {reason}" for c, reason in why.items()) + "."]
+    return "\n".join(lines)
 
 
 def make_case(world: str, case: str):
@@ -123,12 +214,14 @@ def make_case(world: str, case: str):
 
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
             latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
-            tolerance: float = TOLERANCE, case_object=None, angle_wrap: str = "consistent", vision=None):
+            tolerance: float | None = TOLERANCE, tolerance_px: float | None = None, case_object=None,
+            angle_wrap: str = "consistent", vision=None):
     """Simulate one (world, case, scheme) (scheme: any name in ibvs.study.schemes.SCHEMES); returns
     (case object, sim.Result). case_object replaces the named case (e.g. another angle);
-    angle_wrap is set on the scheme's ibvs.Servo. vision: None, or an ibvs.sim.Sensor for an
-    image episode (its renderer's camera replaces the case's: ibvs.vision.image_camera gives a
-    normalised case a 640x480 one)."""
+    angle_wrap is set on the scheme's ibvs.Servo. tolerance, tolerance_px: as in ibvs.sim.run
+    (tolerance None: no error-norm test, only the pixel one). vision: None, or an ibvs.sim.Sensor
+    for an image episode (its renderer's camera replaces the case's: ibvs.vision.image_camera gives
+    a normalised case a 640x480 one)."""
     if angle_wrap not in ANGLE_WRAPS:
         raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
     c = case_object if case_object is not None else make_case(world, case)
@@ -138,26 +231,34 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
         servo.angle_wrap = angle_wrap
     result = sim.run(servo, camera, c.target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
-                     depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance, vision=vision)
+                     depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance,
+                     tolerance_px=tolerance_px, vision=vision)
     return c, result
 
 
 def summarise(world: str, case: str, scheme: str, result, angle_wrap: str = "consistent") -> Row:
     """One row of the summary table from a run's sim.Result."""
     h, s, m = result.history, result.status, result.metrics
-    ok = np.isfinite(h.twist).all(axis=1)
-    tw = h.twist[ok]
-    event = f"point {s.point + 1}" if s.point >= 0 else f"joint q{s.joint + 1}" if s.joint >= 0 else ""
+    event = f"point {s.point + 1}" if s.point >= 0 else f"joint q{s.joint + 1}" if s.joint >= 0 else "none"
     frames = m.frames_to_converge
     dt = float(h.time[1] - h.time[0]) if len(h.time) > 1 else float("nan")
+    nan = float("nan")
+    pixel = result.pixel_error
+
+    def at_end(x):  # at the frame of convergence, else the last value computed
+        finite = np.flatnonzero(np.isfinite(x))
+        k = s.frame if s.converged else int(finite[-1]) if len(finite) else -1
+        return float(x[k]) if 0 <= k < len(x) else nan
     return Row(
-        world, case, scheme, s.outcome, event, frames, frames * dt if frames >= 0 else float("nan"),
-        m.camera_retreat, m.path_length,
-        float(np.linalg.norm(tw[:, :3], axis=1).max()) if len(tw) else float("nan"),
-        float(np.linalg.norm(tw[:, 3:], axis=1).max()) if len(tw) else float("nan"),
+        world, case, scheme, s.outcome, event, frames, frames * dt if frames >= 0 else nan,
+        m.camera_retreat, m.path_length, m.peak_commanded_linear_speed, m.peak_commanded_angular_speed,
         1e3 * m.final_translation_error, math.degrees(m.final_rotation_error),
-        f"q{s.joint + 1}" if s.outcome == "joint_limit" else "no" if world in ("gantry", "arm") else "",
+        f"q{s.joint + 1}" if s.outcome == "joint_limit" else "no" if result.robot is not None else "",
         FIGURES.get((world, case, scheme), ""), wrap_label(scheme, angle_wrap),
+        peak_v_camera=m.peak_linear_speed, peak_w_camera=m.peak_angular_speed,
+        error_norm=at_end(h.error_norm), tolerance=nan if result.tolerance is None else float(result.tolerance),
+        pixel_error=at_end(pixel), tolerance_px=nan if result.tolerance_px is None else float(result.tolerance_px),
+        unit=measurement_unit(result.camera), judgement=result.judged(), end_frame=s.frame,
     )
 
 
@@ -195,9 +296,7 @@ def write_summary(rows: list[Row], checks: list[tuple[str, bool]], out: Path, fi
         w.writerow(Row.COLUMNS)
         for row in rows:
             w.writerow([getattr(row, c) for c in Row.COLUMNS])
-    lines = ["| " + " | ".join(Row.HEADERS) + " |", "|" + "---|" * len(Row.HEADERS)]
-    lines += ["| " + " | ".join(row.cells()) + " |" for row in rows]
-    table = "\n".join(lines)
+    table = format_rows(rows)
     md = ["# ibvs: reproduction of Corke, Spindler & Chaumette (IROS 2009)", "", wrap_sentence(angle_wrap),
           "", table, "", "## Paper claims", ""]
     md += [f"- [{'x' if ok else ' '}] {text}" for text, ok in checks]

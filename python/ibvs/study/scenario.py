@@ -53,6 +53,7 @@ import numpy as np
 
 from .. import sim
 from ..sim.poses import rotation_matrix
+from ..sim.result import measurement_unit
 
 __all__ = ["ANGLE_WRAPS", "DEPTH_MODES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
 
@@ -69,6 +70,8 @@ LIMITS = {"rz_deg": (-360.0, 360.0), "tilt_deg": (0.0, 180.0), "tilt_dir_deg": (
 DEPTH_MODES = ("exact", "pose", "desired", "estimated")
 #: The angle wraps of ibvs.Servo (its angle_wrap option).
 ANGLE_WRAPS = ("consistent", "per_point")
+#: The error-norm tolerance of a scenario that sets neither tolerance nor tolerance_px.
+DEFAULT_TOLERANCE = 1e-5
 #: Longest episode (s) and largest gain (1/s) a scenario may ask for.
 MAX_DURATION = 3600.0
 MAX_GAIN = 1e4
@@ -172,8 +175,12 @@ class Scenario:
     ranges: {parameter: (lo, hi)} of the start distribution (PARAMETERS).
     translation, rotation: callables of a numpy Generator replacing the tx/ty/tz and the
         rz_deg/tilt_deg/tilt_dir_deg ranges.
-    gain (1/s), duration (s), depth (DEPTH_MODES), tolerance, boundary_margin, boundary_gain:
-        as in ibvs.sim.run.
+    gain (1/s), duration (s), depth (DEPTH_MODES), boundary_margin, boundary_gain: as in
+        ibvs.sim.run.
+    tolerance, tolerance_px: when an episode counts as converged, as in ibvs.sim.run: the error
+        norm under tolerance, every measured point within tolerance_px (measurement units:
+        pixels) of its goal; None: not tested, but tolerance is DEFAULT_TOLERANCE when neither is
+        given (tolerances() gives the pair a run uses).
     angle_wrap: ANGLE_WRAPS, set on every ibvs.Servo a scheme builds ("consistent": the theta
         errors of a frame wrapped as one rotation; "per_point": eq. 13 point by point).
     """
@@ -189,10 +196,25 @@ class Scenario:
     gain: float = 1.0
     duration: float = 20.0
     depth: str = "exact"
-    tolerance: float = 1e-5
+    tolerance: Optional[float] = None
     boundary_margin: float = 0.0
     boundary_gain: float = 0.1
     angle_wrap: str = "consistent"
+    tolerance_px: Optional[float] = None
+
+    def tolerances(self) -> tuple[Optional[float], Optional[float]]:
+        """(tolerance, tolerance_px) of ibvs.sim.run: tolerance is DEFAULT_TOLERANCE when neither is set."""
+        if self.tolerance is None and self.tolerance_px is None:
+            return DEFAULT_TOLERANCE, None
+        return self.tolerance, self.tolerance_px
+
+    def criterion(self) -> str:
+        """What converged means in this scenario's episodes, in words."""
+        tol, px = self.tolerances()
+        unit = measurement_unit(self.camera)
+        parts = ([] if tol is None else [f"error norm < {tol:g}"]) + \
+                ([] if px is None else [f"every measured point within {px:g} {unit} of its goal"])
+        return " and ".join(parts)
 
     def replace(self, **changes) -> "Scenario":
         """A copy with some fields changed (None values are ignored); ranges are merged."""
@@ -234,7 +256,10 @@ class Scenario:
                 raise TypeError(f"{name} must be a callable of a numpy Generator, got {type(f).__name__}")
         _number(self.gain, "gain", 0.0, MAX_GAIN, open_lo=True)
         _number(self.duration, "duration", 0.0, MAX_DURATION, open_lo=True)
-        _number(self.tolerance, "tolerance", 0.0, 1e6)
+        if self.tolerance is not None:
+            _number(self.tolerance, "tolerance", 0.0, 1e6)
+        if self.tolerance_px is not None:
+            _number(self.tolerance_px, "tolerance_px", 0.0, 1e6, open_lo=True)
         _number(self.boundary_margin, "boundary_margin", 0.0, 1e6)
         _number(self.boundary_gain, "boundary_gain", 0.0, 1e6)
         if self.depth not in DEPTH_MODES:
@@ -325,9 +350,13 @@ class Scenario:
         return self.goal_joints() if self.robot is not None else self.goal_pose()
 
     def settings(self) -> dict:
-        return {"gain": float(self.gain), "duration": float(self.duration), "depth": self.depth,
-                "tolerance": float(self.tolerance), "boundary_margin": float(self.boundary_margin),
-                "boundary_gain": float(self.boundary_gain), "angle_wrap": self.angle_wrap}
+        tol, px = self.tolerances()
+        out = {"gain": float(self.gain), "duration": float(self.duration), "depth": self.depth,
+               "tolerance": None if tol is None else float(tol), "boundary_margin": float(self.boundary_margin),
+               "boundary_gain": float(self.boundary_gain), "angle_wrap": self.angle_wrap}
+        if px is not None:  # only then: the config hash of every sweep without it stays as it was
+            out["tolerance_px"] = float(px)
+        return out
 
     def key(self) -> str:
         """Hash of everything that determines the episodes (not the name)."""
@@ -555,7 +584,8 @@ def load(path) -> tuple[Scenario, dict]:
             v = (v, v)
         ranges[k] = tuple(v) if isinstance(v, list) else v
     control = dict(doc.get("control", {}))
-    fields = ("gain", "duration", "depth", "tolerance", "boundary_margin", "boundary_gain", "angle_wrap")
+    fields = ("gain", "duration", "depth", "tolerance", "tolerance_px", "boundary_margin", "boundary_gain",
+              "angle_wrap")
     _keys(control, fields, f"{where} [control]")
     name = doc.get("name", path.stem)
     try:

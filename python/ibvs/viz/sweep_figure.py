@@ -11,12 +11,17 @@ from .drawing import new_figure
 def sweep_summary(table: Sequence[dict], by: str = "rz_deg", *, fig=None):
     """Figure of ibvs.study.sweep.aggregate(): per scheme (one colour each) against the bins of
     `by`, the fraction of every outcome (one panel each, converged first) and the medians of
-    the camera retreat, the camera path length and the peak linear and angular speed."""
+    the camera retreat, the camera path length, the peak commanded twist (linear and angular) and
+    the peak speed the camera actually moved at (on a robot, within its joint speed limits)."""
     if not table:
         raise ValueError("table: empty (no rows to plot)")
     outcomes = list(table[0]["outcomes"])
     metrics = [("retreat", "median camera retreat (m)"), ("path", "median camera path (m)"),
-               ("peak_linear_speed", "median peak ‖T‖ (m/s)"), ("peak_angular_speed", "median peak ‖ω‖ (rad/s)")]
+               ("peak_linear_speed", "median peak commanded ‖T‖ (m/s)"),
+               ("peak_angular_speed", "median peak commanded ‖ω‖ (rad/s)"),
+               ("peak_camera_linear_speed", "median peak camera ‖T‖ (m/s)"),
+               ("peak_camera_angular_speed", "median peak camera ‖ω‖ (rad/s)")]
+    metrics = [(k, name) for k, name in metrics if k in table[0]]
     panels = [(o, f"{o} (%)") for o in outcomes] + metrics
     cols = 4
     rows = math.ceil(len(panels) / cols)

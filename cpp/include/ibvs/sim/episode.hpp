@@ -31,7 +31,9 @@
 //      Hutchinson 2001) gives the camera twist; with
 //      boundary_margin > 0 an image-boundary potential adds a retreat to Tz
 //      (paper Section IV, below); the episode
-//      ends when the error norm is under tolerance (converged), the servo
+//      ends when the error norm is under tolerance and, with tolerance_px > 0,
+//      every point this frame's measurement (step 3) holds lies within
+//      tolerance_px of the goal's measurement (converged), the servo
 //      reports a singular J (singular) or the error / target depth blows up
 //      (diverged);
 //   6. the twist moves the camera (free) or, on a robot, becomes joint
@@ -87,6 +89,15 @@
 // within [min_depth, 100 depth_scale z*]. Depth mode "pose": ibvs::PlanarPose
 // on the controller's points (the last estimate is kept when one is degenerate).
 //
+// In the code (cpp/src/sim/episode.cpp) each frame is a sequence of named
+// stages, each in its own file under cpp/src/sim/stages/ and tested on its own
+// (tests/cpp/test_sim_stages.cpp): measure (steps 2-4: the points in the camera
+// frame, their projections, the sensor, the latency ring, the controller's
+// points), estimate depths (step 4), control (step 5: the servo and the
+// boundary potential), actuate (step 6: free flight or the robot's joints) and
+// judge (every outcome above, asked after each stage in the order given here);
+// record writes the History.
+//
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
 
@@ -130,7 +141,7 @@ enum class DepthMode : std::uint8_t {
 
 /// How an episode ended.
 enum class Outcome : std::uint8_t {
-  converged = 0,      ///< error norm < tolerance
+  converged = 0,      ///< error norm < tolerance (and every measured point within tolerance_px of its goal)
   left_image = 1,     ///< a point left the sensor or the camera model's domain (EpisodeStatus::point)
   behind_camera = 2,  ///< a point's depth fell below min_depth (EpisodeStatus::point)
   joint_limit = 3,    ///< the next step would leave a joint's range (EpisodeStatus::joint)
@@ -150,7 +161,13 @@ struct EpisodeOptions {
   int latency = 0;          ///< frames between capture and control, >= 0
   DepthMode depth = DepthMode::exact;
   std::uint64_t seed = 0;   ///< std::mt19937_64 seed of the noise
-  double tolerance = 1e-4;  ///< converged when the servo's error norm is below this
+  /// Converged when the servo's error norm is below this (and the pixel test below passes);
+  /// +inf: no test of the error norm, only the pixel test (then tolerance_px must be > 0).
+  double tolerance = 1e-4;
+  /// > 0: converged also needs every point of the frame's measurement (as the sensor or a
+  /// tracker reports it, before latency) within this distance of the goal's measurement,
+  /// measurement units (pixels); 0 = no pixel test.
+  double tolerance_px = 0.0;
   double min_depth = 1e-3;  ///< metres; behind_camera below it
   double max_depth_ratio = 10.0;   ///< diverged when the target's depth exceeds this times its start depth
   double max_error_ratio = 100.0;  ///< diverged when the error norm exceeds this times its first value
@@ -229,6 +246,9 @@ struct EpisodeResult {
   Metrics metrics;
   History history;
   Points uv_desired;              ///< 2 x N, what the controller aims at
+  /// 2 x N, the goal as the sensor measured it (measurement units, pixels): what tolerance_px
+  /// compares each frame's measurement with.
+  Points measured_desired;
   Eigen::VectorXd depth_desired;  ///< N
   Pose goal = Pose::Identity();   ///< world <- camera at the goal
 };
@@ -273,40 +293,17 @@ class Episode {
   Sensor& sensor() const noexcept { return *sensor_; }
 
  private:
+  struct Stages;  // the loop's stages (cpp/src/sim/stages/), built by the constructors
   void prepare(const Pose& goal);
   void loop(Pose T_wc, const JointVector* q_start) noexcept;
-  double boundary_tz(int seen) const noexcept;
-  bool target_contact(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool moved, EpisodeStatus& st) const noexcept;
 
   AnyServo servo_;
-  ServoOutput out_;
   CameraModel camera_;
   Target target_;
   std::shared_ptr<Robot> robot_;
   std::shared_ptr<Sensor> sensor_;
-  std::optional<JointMapping> mapping_;  // the robot's, sized for its n joints
-  JointMappingInput joint_in_{1};
-  JointMappingOutput joint_out_{1};
   EpisodeOptions options_;
-  std::optional<PlanarPose> pose_estimator_;        // DepthMode::pose
-  std::optional<DepthEstimator> depth_estimator_;  // DepthMode::estimated
-  Eigen::Matrix3Xd world_points_;
-  Eigen::Vector3d centroid_;  // target frame
-  // target faces (see above): the plane's unit normal in the world on the goal camera's side
-  // (zero: no front), the extent's radius, the standoff in metres, the centroid in the world
-  Eigen::Vector3d front_ = Eigen::Vector3d::Zero();
-  double extent_ = 0.0, standoff_ = 0.0;
-  Eigen::Vector3d centroid_w_ = Eigen::Vector3d::Zero();
-  // per-frame work
-  Eigen::Matrix3Xd pc_;
-  Points projected_;  // 2 x N true projections of this frame
-  Points measured_;   // 2 x N(L+1) ring of measurements
-  RowMatrix ring_depth_;  // (L+1) x N true depths
-  Points uv_;
-  Eigen::VectorXd z_;
-  Eigen::Matrix4Xd desired_distance_;  // 4 x N: desired points' distances to the sensor's sides
-  // depth estimate: a ring of the camera's motion after each frame (new pose in the old frame)
-  std::vector<Pose> ring_motion_;  // L + 1
+  std::unique_ptr<Stages> stages_;
   EpisodeResult result_;
 };
 

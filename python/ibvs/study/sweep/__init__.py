@@ -23,7 +23,8 @@ Local runs use a pool of worker processes (many episodes per task: an episode ta
 millisecond of C++); `scheduler=` (an address or a dask.distributed Client) sends the same
 tasks to Dask's distributed scheduler (pip install ".[distributed]"). Rows are
 deterministic, so the tables of both paths are identical. An interruption (KeyboardInterrupt)
-stops the workers at once; every row finished before it is in the file.
+stops the workers at once; every row finished before it is in the file, and so it is when the
+Dask scheduler dies (SchedulerLost, a ConnectionError).
 
 Schemes: SCHEMES (ibvs.study.schemes) maps a name to a factory(gain, n_points) -> servo (an
 ibvs.Servo or an ibvs.PartitionedServo: whatever ibvs.sim.run accepts). Add more with
@@ -44,7 +45,7 @@ from __future__ import annotations
 
 from ..schemes import SCHEMES, register_scheme
 from ..scenario import DEFAULT_RANGES, DEPTH_MODES, PARAMETERS, Scenario
-from .cluster import CONNECT_TIMEOUT
+from .cluster import CONNECT_TIMEOUT, SchedulerLost
 from .episodes import run_episode
 from .rows import COLUMNS, load
 from .runner import resolve, sweep
@@ -63,6 +64,7 @@ __all__ = [
     "ROTATION_BINS",
     "SCHEMES",
     "Scenario",
+    "SchedulerLost",
     "SweepSpec",
     "aggregate",
     "bins_for",

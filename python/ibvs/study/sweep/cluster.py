@@ -50,19 +50,68 @@ def connect(scheduler):
             q.setLevel(level)
 
 
+class SchedulerLost(ConnectionError):
+    """The Dask scheduler stopped answering during a sweep (it died, or its host or the network went
+    away): the rows finished before are in the CSV."""
+
+
+def _lost(client, e: BaseException) -> bool:
+    """Whether exception e, raised while waiting for the sweep's results, means the scheduler is gone."""
+    if isinstance(e, (KeyboardInterrupt, SystemExit)):
+        return False
+    try:
+        from distributed.client import FutureCancelledError
+        from distributed.comm import CommClosedError
+    except ImportError:  # pragma: no cover - run_dask imports distributed first
+        return False
+    if isinstance(e, FutureCancelledError):
+        return e.reason == "scheduler-connection-lost" or client.status != "running"
+    return isinstance(e, (CommClosedError, OSError, TimeoutError)) or client.status not in ("running", "newly-created")
+
+
 def run_dask(client, own: bool, spec: SweepSpec, todo: list, factories: dict, batch: Optional[int], take) -> None:
+    """The batches on a Dask client, each handed to take() as it finishes. SchedulerLost (one line, no
+    traceback of Dask's) when the scheduler stops answering; distributed's own log lines about the
+    lost connection are silenced meanwhile (that exception says it)."""
+    import logging
+
     from dask.distributed import as_completed
 
+    address = getattr(getattr(client, "scheduler", None), "address", None) or "its address"
+    quiet = [logging.getLogger(n) for n in ("distributed.client", "distributed.comm", "distributed.core",
+                                            "distributed.batched", "distributed.utils")]
+    levels = [q.level for q in quiet]
+    lost = False
+    futures: list = []
     try:
-        workers = max(1, sum(client.nthreads().values()))
-        size = batch or max(1, min(256, math.ceil(len(todo) / (4 * workers))))
-        futures = [client.submit(run_batch, spec, chunk, factories, pure=False) for chunk in chunks(todo, size)]
         try:
+            workers = max(1, sum(client.nthreads().values()))
+            size = batch or max(1, min(256, math.ceil(len(todo) / (4 * workers))))
+            futures = [client.submit(run_batch, spec, chunk, factories, pure=False)
+                       for chunk in chunks(todo, size)]
+            for q in quiet:  # from here a lost scheduler is reported by SchedulerLost alone
+                q.setLevel(logging.CRITICAL + 1)
             for fut in as_completed(futures, loop=client.loop):
                 take(fut.result())
-        except BaseException:
-            client.cancel(futures)
+        except BaseException as e:
+            lost = _lost(client, e)
+            try:
+                if futures:
+                    client.cancel(futures)
+            except Exception:
+                if not lost:
+                    raise
+            if lost:
+                raise SchedulerLost(f"scheduler: lost the Dask scheduler at {address} (its connection closed)") \
+                    from None
             raise
     finally:
-        if own:
-            client.close()
+        try:
+            if own:
+                client.close(timeout=CONNECT_TIMEOUT)
+        except Exception:
+            if not lost:
+                raise
+        finally:
+            for q, level in zip(quiet, levels):
+                q.setLevel(level)

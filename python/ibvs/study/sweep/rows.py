@@ -15,8 +15,14 @@ COLUMNS = (
     "id", "config", "index", "scenario", "scheme", *PARAMETERS, "depth", "angle_wrap", "outcome", "frame",
     "point", "joint",
     "frames_to_converge", "time_to_converge", "camera_retreat", "path_length", "peak_linear_speed",
-    "peak_angular_speed", "final_translation_error", "final_rotation_error",
+    "peak_angular_speed", "final_translation_error", "final_rotation_error", "peak_camera_linear_speed",
+    "peak_camera_angular_speed",
 )
+#: The columns of files written before the camera's actual speeds were recorded: such a file is read
+#: (those two columns NaN) and resumed in its own columns.
+PREVIOUS_COLUMNS = COLUMNS[:-2]
+#: Columns that a file of PREVIOUS_COLUMNS lacks.
+ADDED_COLUMNS = COLUMNS[len(PREVIOUS_COLUMNS):]
 #: Columns holding integers and strings (the others hold floats).
 INT_COLUMNS = {"index", "latency", "frame", "point", "joint", "frames_to_converge"}
 STR_COLUMNS = {"id", "config", "scenario", "scheme", "depth", "angle_wrap", "outcome"}
@@ -31,9 +37,16 @@ def _format(name: str, x) -> str:
 def _parse(row: dict) -> dict:
     out = {}
     for k in COLUMNS:
-        v = row[k]
+        v = row.get(k, "nan")  # a column the file's version lacks (ADDED_COLUMNS)
         out[k] = v if k in STR_COLUMNS else int(v) if k in INT_COLUMNS else float(v)
     return out
+
+
+def _header(path: Path) -> tuple:
+    """The columns of an existing sweep file: COLUMNS, or PREVIOUS_COLUMNS for an older one."""
+    with open(path, encoding="utf-8", errors="replace") as f:
+        first = f.readline().rstrip("\n")
+    return PREVIOUS_COLUMNS if first == ",".join(PREVIOUS_COLUMNS) else COLUMNS
 
 
 def load(path: Union[str, os.PathLike], config: Optional[str] = None) -> list[dict]:
@@ -53,7 +66,8 @@ def load(path: Union[str, os.PathLike], config: Optional[str] = None) -> list[di
     reader = csv.DictReader(text.splitlines())
     header = ",".join(COLUMNS)
     first = raw_text.split("\n", 1)[0]
-    if raw_text and first != header and not ("\n" not in raw_text and header.startswith(first)):
+    if raw_text and first not in (header, ",".join(PREVIOUS_COLUMNS)) \
+            and not ("\n" not in raw_text and header.startswith(first)):
         raise ValueError(f"out: {path} is not an ibvs sweep file of this version (its first line is not the "
                          f"header {COLUMNS[0]},{COLUMNS[1]},...)")
     for raw in reader:
@@ -79,6 +93,8 @@ class RowWriter:
                 if not data.endswith(b"\n"):
                     f.truncate(data.rfind(b"\n") + 1)
         new = not path.exists() or path.stat().st_size == 0
+        # a file of an older version goes on in its own columns, so that every line has the same ones
+        self.columns = COLUMNS if new else _header(path)
         self.f = open(path, "a", newline="")
         self.w = csv.writer(self.f, lineterminator="\n")
         if new:
@@ -88,7 +104,7 @@ class RowWriter:
     def write(self, rows: list[dict]) -> None:
         if self.f is not None:
             for r in rows:
-                self.w.writerow([_format(c, r[c]) for c in COLUMNS])
+                self.w.writerow([_format(c, r[c]) for c in self.columns])
             self.f.flush()
 
     def close(self) -> None:

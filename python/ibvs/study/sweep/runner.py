@@ -4,6 +4,7 @@ its arguments."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from pathlib import Path
@@ -26,8 +27,9 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
 
     scenario: a Scenario, a built-in name ("free", "gantry"), a TOML file (str or Path ending
     in .toml), or None (world, default "free"). ranges and settings (gain, duration, depth,
-    tolerance, boundary_margin, boundary_gain, angle_wrap; None = the scenario's) override the
-    scenario's."""
+    tolerance, tolerance_px, boundary_margin, boundary_gain, angle_wrap; None = the scenario's)
+    override the scenario's; tolerance_px without tolerance replaces the scenario's tests by the
+    pixel test alone (give both for both)."""
     options: dict = {}
     if scenario is not None and world is not None:
         raise ValueError("world and scenario: give one or the other")
@@ -42,7 +44,10 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
                         f"{type(scenario).__name__}")
     if ranges is not None and not isinstance(ranges, Mapping):
         raise TypeError(f"ranges must be a mapping {{parameter: (lo, hi)}}, got {type(ranges).__name__}")
-    return scenario.replace(ranges=ranges, **settings), options
+    out = scenario.replace(ranges=ranges, **settings)
+    if settings.get("tolerance_px") is not None and settings.get("tolerance") is None:
+        out = dataclasses.replace(out, tolerance=None)  # the pixels alone decide (replace() skips None)
+    return out, options
 
 
 def sweep(
@@ -59,6 +64,7 @@ def sweep(
     duration: Optional[float] = None,
     depth: Optional[str] = None,
     tolerance: Optional[float] = None,
+    tolerance_px: Optional[float] = None,
     boundary_margin: Optional[float] = None,
     boundary_gain: Optional[float] = None,
     angle_wrap: Optional[str] = None,
@@ -78,8 +84,8 @@ def sweep(
     schemes: names in SCHEMES (default: all registered).
     ranges: {parameter: (lo, hi)} overriding the scenario's start distribution (PARAMETERS).
     grid: {parameter: values}: every combination instead of random samples.
-    gain, duration, depth, tolerance, boundary_margin, boundary_gain: override the scenario's
-        control settings (see ibvs.sim.run).
+    gain, duration, depth, tolerance, tolerance_px, boundary_margin, boundary_gain: override the
+        scenario's control settings (see ibvs.sim.run).
     angle_wrap: "consistent" or "per_point", set on every ibvs.Servo the schemes build
         (default: the scenario's, "consistent" unless it says otherwise).
     jobs: local worker processes (default: os.cpu_count(); 1 = in this process).
@@ -87,10 +93,10 @@ def sweep(
     scheduler: a Dask scheduler address or a dask.distributed Client: run there instead.
         ConnectionError when the address does not answer within a few seconds.
     progress: a progress bar on stderr (tqdm if installed).
-    limit: run at most this many new episodes (then stop, as if interrupted).
+    limit: run at most this many new rows (then stop, as if interrupted).
     """
     setup, options = resolve(scenario, world=world, ranges=ranges, gain=gain, duration=duration, depth=depth,
-                             tolerance=tolerance, boundary_margin=boundary_margin,
+                             tolerance=tolerance, tolerance_px=tolerance_px, boundary_margin=boundary_margin,
                              boundary_gain=boundary_gain, angle_wrap=angle_wrap)
     schemes = schemes if schemes is not None else options.get("schemes")
     spec = SweepSpec(scenario=setup, seed=seed if seed is not None else options.get("seed", 0),
@@ -115,14 +121,15 @@ def sweep(
     client = connect(scheduler) if scheduler is not None else None
     rows = dict(existing)
     writer = RowWriter(path)
-    bar = Progress(len(wanted), len(wanted) - len(todo) if limit is None else len(existing), progress)
+    bar = Progress(spec.size, len(spec.schemes), [i for i, s in wanted if episode_id(config, i, s) in existing],
+                   progress)
     n_workers = jobs or os.cpu_count() or 1
 
     def take(batch_rows):
         writer.write(batch_rows)
         for r in batch_rows:
             rows[r["id"]] = r
-        bar.update(len(batch_rows))
+        bar.update(r["index"] for r in batch_rows)
 
     try:
         if client is not None:

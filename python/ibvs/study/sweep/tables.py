@@ -61,9 +61,12 @@ def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[
     n (episodes with a valid start), the fraction of each outcome (a key per outcome of
     outcomes(rows): converged, left_image, ..., timeout, and any added later), time (median
     time to converge, s, converged only), the medians of retreat (camera retreat, m), path
-    (camera path length, m), peak_linear_speed (m/s) and peak_angular_speed (rad/s) over the
-    valid episodes, invalid (starts skipped: target not in view) and unreachable (starts skipped:
-    no joints within the robot's limits put the camera there). Every
+    (camera path length, m), peak_linear_speed (m/s) and peak_angular_speed (rad/s) of the
+    commanded twist, peak_camera_linear_speed and peak_camera_angular_speed (the speed the
+    camera actually moved at, from its poses: on a robot within its joint speed limits; NaN in a
+    file written before they were recorded) over the valid episodes, invalid (starts skipped:
+    target not in view) and unreachable (starts skipped: no joints within the robot's limits put
+    the camera there). Every
     row of the table also holds "outcomes", the list of outcome keys. Deterministic: rows are
     taken in (index, scheme) order."""
     if by not in PARAMETERS:
@@ -96,7 +99,9 @@ def aggregate(rows: Iterable[dict], by: str = "rz_deg", bins: Optional[Sequence[
                 t[o] = sum(r["outcome"] == o for r in valid) / n if n else math.nan
             t["time"] = _median(r["time_to_converge"] for r in valid if r["outcome"] == "converged")
             for key, col in (("retreat", "camera_retreat"), ("path", "path_length"),
-                             ("peak_linear_speed", "peak_linear_speed"), ("peak_angular_speed", "peak_angular_speed")):
+                             ("peak_linear_speed", "peak_linear_speed"), ("peak_angular_speed", "peak_angular_speed"),
+                             ("peak_camera_linear_speed", "peak_camera_linear_speed"),
+                             ("peak_camera_angular_speed", "peak_camera_angular_speed")):
                 t[key] = _median(r[col] for r in valid)
             t["invalid"] = sum(r["outcome"] == "invalid_start" for r in g)
             t["unreachable"] = sum(r["outcome"] == "unreachable" for r in g)
@@ -128,27 +133,52 @@ def format_starts(rows: Iterable[dict]) -> str:
 
 
 _METRIC_COLUMNS = (("time", "time (s)"), ("retreat", "retreat (m)"), ("path", "path (m)"),
-                   ("peak_linear_speed", "peak ‖T‖ (m/s)"), ("peak_angular_speed", "peak ‖ω‖ (rad/s)"),
+                   ("peak_linear_speed", "peak commanded ‖T‖ (m/s)"),
+                   ("peak_angular_speed", "peak commanded ‖ω‖ (rad/s)"),
+                   ("peak_camera_linear_speed", "peak camera ‖T‖ (m/s)"),
+                   ("peak_camera_angular_speed", "peak camera ‖ω‖ (rad/s)"),
                    ("invalid", "invalid starts"), ("unreachable", "unreachable starts"))
+
+
+_EMPTY = "a bin without a valid start (n = 0) has no values"
+
+
+def _why(t: dict, key: str) -> str:
+    """Why the value of `key` in table row t is NaN."""
+    if not t["n"]:
+        return _EMPTY
+    if key == "time":
+        return "no episode of the bin converged"
+    if key.startswith("peak_camera"):
+        return "not in the CSV (written by an older ibvs), or no episode moved the camera"
+    return "no episode of the bin has a value"
 
 
 def format_table(table: list[dict], by: str = "rz_deg") -> str:
     """Markdown table of aggregate(): a column per outcome (% of the valid starts), then the
-    medians."""
+    medians; a cell without a value says n/a, and the lines under the table why."""
     names = list(table[0]["outcomes"]) if table else list(sim.OUTCOMES)
     columns = [("scheme", "scheme"), ("bin", by), ("n", "n")] + [(o, o) for o in names] + list(_METRIC_COLUMNS)
     lines = ["| " + " | ".join(h for _, h in columns) + " |", "|" + "---|" * len(columns)]
+    why: dict = {}
     for t in table:
         cells = []
-        for k, _ in columns:
+        for k, header in columns:
             x = t[k]
-            if k in names:
-                cells.append("-" if math.isnan(x) else f"{100 * x:.1f} %")
+            if isinstance(x, float) and math.isnan(x):
+                cells.append("n/a")
+                why.setdefault(_why(t, k), []).append(header if k not in names else "outcomes")
+            elif k in names:
+                cells.append(f"{100 * x:.1f} %")
             elif isinstance(x, float):
-                cells.append("-" if math.isnan(x) else f"{x:.4g}")
+                cells.append(f"{x:.4g}")
             else:
                 cells.append(str(x))
         lines.append("| " + " | ".join(cells) + " |")
+    if why:
+        lines.append("")
+        lines += [f"n/a{'' if reason == _EMPTY else ' (' + ', '.join(dict.fromkeys(headers)) + ')'}: {reason}"
+                  for reason, headers in why.items()]
     return "\n".join(lines)
 
 
