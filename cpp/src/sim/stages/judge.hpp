@@ -41,7 +41,7 @@ class Judge {
 
   /// The faces from the goal camera (world <- camera): the front, the standoff.
   void aim(const Pose& goal) noexcept;
-  /// A new run: the references (start depth, first error) and the retreat restart.
+  /// A new run: the retreat restarts (the references, start depth and first error, are taken at frame 0).
   void start() noexcept { retreat_ = 0.0; }
 
   /// The verdicts, in the loop's order (above): true when the episode ends at frame k, st filled.
