@@ -360,6 +360,32 @@ void partitioned_episodes() {
   CHECK_THROWS(run_episode(partitioned(1.0, 3), cam, tgt, half_turn_z(), Pose::Identity()));
 }
 
+// A moved Episode (its stages stay where they are, the robot shared) runs as before, and so does
+// one moved into an Episode that had run another set-up.
+void moved_episodes() {
+  const Gantry g = Gantry::afma6();
+  EpisodeOptions o = opts(15, 1e-5);
+  o.depth = DepthMode::estimated;
+  o.latency = 2;
+  Episode e(servo(Layout::stacked(4), 2.0), CameraModel::afma6(), gantry_target(g), g, o);
+  const EpisodeResult first = e.run(gantry_start(), gantry_goal());
+  const int K = first.history.frames;
+  // the frames recorded (the rows after them are not written)
+  const auto same = [&](const EpisodeResult& r) {
+    return r.history.frames == K && r.status.outcome == first.status.outcome &&
+           r.history.q.topRows(K) == first.history.q.topRows(K) &&
+           r.history.depth.topRows(K) == first.history.depth.topRows(K) &&
+           r.history.twist.topRows(K) == first.history.twist.topRows(K);
+  };
+  Episode moved(std::move(e));
+  CHECK(same(moved.run(gantry_start(), gantry_goal())));
+  Episode other(servo(Layout::polar(4)), CameraModel::normalized(0.3), Target::paper(), opts(5, 1e-4));
+  other.run(half_turn_z(), Pose::Identity());
+  other = std::move(moved);
+  CHECK(other.has_robot() && same(other.run(gantry_start(), gantry_goal())));
+  CHECK(first.status.outcome == Outcome::converged);
+}
+
 void timing() {
   const Gantry g = Gantry::afma6();
   EpisodeOptions o = opts(10, 0.0);  // tolerance 0: all 600 frames
@@ -385,5 +411,6 @@ void run_tests() {
   target_faces();
   noise_latency_depth_modes();
   partitioned_episodes();
+  moved_episodes();
   timing();
 }

@@ -329,7 +329,8 @@ void boundary_potential() {
     plus.col(i) += h * rate;
     minus.col(i) -= h * rate;
   }
-  const double expected = -gain * zbar * zbar * (potential(cam, plus, goal, margin) - potential(cam, minus, goal, margin)) / (2 * h);
+  const double dU = potential(cam, plus, goal, margin) - potential(cam, minus, goal, margin);
+  const double expected = -gain * zbar * zbar * dU / (2 * h);
   const double tz = b.tz(px, z);
   CHECK(expected < 0.0);  // near the borders: retreat
   CHECK_NEAR(tz, expected, 1e-6 * std::abs(expected));
@@ -365,7 +366,8 @@ void control_step() {
     c.aim(uvd);
     const Status s = c.step(servo, uv, z, uvd, zd, uv);
     CHECK(s == s_ref && c.output().error == out.error);
-    CHECK(c.output().velocity.head<2>() == out.velocity.head<2>() && c.output().velocity.tail<3>() == out.velocity.tail<3>());
+    CHECK(c.output().velocity.head<2>() == out.velocity.head<2>());
+    CHECK(c.output().velocity.tail<3>() == out.velocity.tail<3>());
     st::BoundaryPotential b(cam, margin, o.boundary_gain, 4);
     b.aim(uvd);
     const double tz = margin > 0.0 ? b.tz(uv, z) : 0.0;

@@ -84,8 +84,10 @@ const Layout& layout_of(const AnyServo& servo) noexcept {
 
 }  // namespace
 
-// The loop's stages, one of each (see the files for what each does); on the heap, so that moving
-// an Episode moves none of them (Actuate keeps a pointer to the robot, which the Episode shares).
+// The loop's stages, one of each (see their headers for what each does). The stages are
+// header-only and included here alone (and by their tests): the loop stays one translation unit,
+// compiled once. On the heap, so that moving an Episode moves none of them (Actuate keeps a
+// pointer to the robot, which the Episode shares).
 struct Episode::Stages {
   stages::Measure measure;
   stages::Depths depths;
@@ -218,13 +220,14 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   int k = 0;
   for (;; ++k) {
     stages::open_frame(h, k, k * actuate.dt(), T_wc, q);
-    const Eigen::Matrix3d Rcw = T_wc.topLeftCorner<3, 3>().transpose();  // camera <- world
+    const Eigen::Matrix3d Rcw = T_wc.topLeftCorner<3, 3>().transpose();  // camera <- world, for judge and measure
     const Eigen::Vector3d tcw = -Rcw * T_wc.topRightCorner<3, 1>();
     if (judge.camera(k, T_wc, Rcw, tcw, actuate.kinematics_ok(), st)) break;
 
     // Measure: this frame into the latency ring, then the frame the controller sees.
     const stages::Sighting sighting = measure.capture(k, T_wc, Rcw, tcw, moved, *sensor_);
-    if (sighting.behind < 0) stages::record_sighting(h, k, measure.projected(), measure.measured(measure.slot(k)));
+    if (sighting.behind < 0)  // else nothing was projected or measured
+      stages::record_sighting(h, k, measure.projected(), measure.measured(measure.slot(k)));
     if (judge.sighting(k, sighting, st)) break;
     if (judge.view(k, measure.view(k), st)) break;
     const int seen = measure.seen(k);

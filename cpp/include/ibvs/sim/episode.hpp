@@ -90,13 +90,13 @@
 // on the controller's points (the last estimate is kept when one is degenerate).
 //
 // In the code (cpp/src/sim/episode.cpp) each frame is a sequence of named
-// stages, each in its own file under cpp/src/sim/stages/ and tested on its own
-// (tests/cpp/test_sim_stages.cpp): measure (steps 2-4: the points in the camera
-// frame, their projections, the sensor, the latency ring, the controller's
-// points), estimate depths (step 4), control (step 5: the servo and the
-// boundary potential), actuate (step 6: free flight or the robot's joints) and
-// judge (every outcome above, asked after each stage in the order given here);
-// record writes the History.
+// stages, each in its own internal header under cpp/src/sim/stages/ and tested
+// on its own (tests/cpp/test_sim_stages.cpp): measure (steps 2-4: the points in
+// the camera frame, their projections, the sensor, the latency ring, the
+// controller's points), estimate depths (step 4), control (step 5: the servo
+// and the boundary potential), actuate (step 6: free flight or the robot's
+// joints) and judge (every outcome above, asked after each stage in the order
+// given here); record writes the History.
 //
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once

@@ -21,13 +21,12 @@ namespace ibvs::sim::stages {
 
 class Actuate {
  public:
-  Actuate() = default;
   explicit Actuate(double dt) : dt_(dt) {}  ///< a free-flying camera
   /// Drive `robot` (not owned: it must outlive this stage, and not move).
   void attach(const Robot& robot);
   bool has_robot() const noexcept { return robot_ != nullptr; }
 
-  /// A new run from camera pose T_wc (free) or joints q_start (robot; its kinematics at q_start).
+  /// A new run: on a robot from the joints q_start (its kinematics there); free: q_start is null.
   void start(const JointVector* q_start) noexcept;
   /// Moves by the twist v from T_wc: the next camera pose into T_next, or, on a robot, the
   /// index of the joint that would leave its range (T_next, q unchanged). -1 = moved.
@@ -50,5 +49,40 @@ class Actuate {
   Pose T_we_ = Pose::Identity();  // world <- end effector at q_ (its Jacobian is in in_)
   bool kinematics_ok_ = true;
 };
+
+// ---------------------------------------------------------------- implementation
+
+inline void Actuate::attach(const Robot& robot) {
+  const int n = robot.dof();
+  robot_ = &robot;
+  mapping_.emplace(n, robot.mount, robot.mapping_options());
+  in_ = JointMappingInput(n);
+  out_ = JointMappingOutput(n);
+  q_.resize(n);
+}
+
+inline void Actuate::start(const JointVector* q_start) noexcept {
+  kinematics_ok_ = true;
+  if (!robot_) return;
+  q_ = *q_start;
+  kinematics_ok_ = robot_->kinematics(q_, T_we_, in_.jacobian);
+}
+
+inline int Actuate::step(const Twist& v, const Pose& T_wc, Pose& T_next) noexcept {
+  if (!robot_) {
+    T_next = T_wc * se3_exp(v * dt_);  // exact SE(3) integration of the twist
+    return -1;
+  }
+  in_.twist = v;
+  in_.base_rotation = T_we_.topLeftCorner<3, 3>();
+  mapping_->update(in_, out_);  // qdot within qdot_max; the Jacobian came with T_we_
+  const JointVector q_next = q_ + dt_ * out_.qdot;
+  const int j = robot_->outside_limits(q_next);
+  if (j >= 0) return j;
+  q_ = q_next;
+  kinematics_ok_ = robot_->kinematics(q_, T_we_, in_.jacobian);  // judged at the next frame
+  T_next = T_we_ * robot_->mount;
+  return -1;
+}
 
 }  // namespace ibvs::sim::stages

@@ -11,12 +11,15 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cmath>
+#include <variant>
+
 namespace ibvs::sim::stages {
 
 /// The image-boundary potential U of the measured points and the Tz that descends it.
 class BoundaryPotential {
  public:
-  BoundaryPotential() = default;
   /// margin >= 0 (measurement units), gain >= 0 (1/s); n points.
   BoundaryPotential(const CameraModel& camera, double margin, double gain, int n);
   bool active() const noexcept { return margin_ > 0.0 && gain_ > 0.0; }
@@ -48,5 +51,60 @@ class Control {
   ServoOutput out_;
   BoundaryPotential boundary_;
 };
+
+// ---------------------------------------------------------------- implementation
+
+inline BoundaryPotential::BoundaryPotential(const CameraModel& camera, double margin, double gain, int n)
+    : camera_(camera), margin_(margin), gain_(gain) {
+  desired_distance_.resize(4, n);
+}
+
+inline void BoundaryPotential::aim(const Eigen::Ref<const Points>& goal_measured) noexcept {
+  for (Eigen::Index i = 0; i < goal_measured.cols(); ++i) {
+    const Eigen::Vector2d m = goal_measured.col(i);
+    desired_distance_.col(i) << m(0) - camera_.u_min(), camera_.u_max() - m(0), m(1) - camera_.v_min(),
+        camera_.v_max() - m(1);
+  }
+}
+
+inline double BoundaryPotential::tz(const Eigen::Ref<const Points>& measured,
+                                    const Eigen::VectorXd& z_given) const noexcept {
+  const Eigen::Index n = measured.cols();
+  double dU_dTz = 0.0, zbar = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto p = measured.col(i);
+    const double z = z_given(i);
+    zbar += z;
+    // distance to each side, its derivative along u or v, and d(u or v)/dTz (the Tz column of the
+    // interaction matrix in measurement units)
+    const double d[4] = {p(0) - camera_.u_min(), camera_.u_max() - p(0), p(1) - camera_.v_min(),
+                         camera_.v_max() - p(1)};
+    const double sign[4] = {1.0, -1.0, 1.0, -1.0};
+    const double rate[4] = {(p(0) - camera_.u0()) / z, (p(0) - camera_.u0()) / z, (p(1) - camera_.v0()) / z,
+                            (p(1) - camera_.v0()) / z};
+    for (int side = 0; side < 4; ++side) {
+      const double m = std::min(margin_, desired_distance_(side, i));
+      if (!(m > 0.0)) continue;
+      const double s = std::max(d[side] / m, 1e-3);  // bounded: a point on the border is a finite push
+      if (s >= 1.0) continue;
+      const double dU_dd = -(1.0 / s - 1.0) / (s * s * m);
+      dU_dTz += dU_dd * sign[side] * rate[side];
+    }
+  }
+  zbar /= static_cast<double>(n);
+  const double tz = -gain_ * zbar * zbar * dU_dTz;
+  return std::isfinite(tz) ? tz : 0.0;
+}
+
+inline Control::Control(const Layout& layout, const CameraModel& camera, const EpisodeOptions& options)
+    : out_(layout), boundary_(camera, options.boundary_margin, options.boundary_gain, layout.n_points()) {}
+
+inline Status Control::step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
+                            const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured) noexcept {
+  const Status s =
+      std::visit([&](auto& law) noexcept { return law.update(uv, z, uv_desired, z_desired, out_); }, servo);
+  if (s != Status::invalid_input && boundary_.active()) out_.velocity(2) += boundary_.tz(measured, z);
+  return s;
+}
 
 }  // namespace ibvs::sim::stages
