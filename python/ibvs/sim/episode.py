@@ -80,6 +80,7 @@ def run(
     boundary_gain: float = 0.1,
     standoff_ratio: float = 0.05,
     vision=None,
+    record=None,
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -135,6 +136,10 @@ def run(
         (an ImageSensor with your renderer options). Needs a pixel camera. With a sensor,
         `noise` is not added (the image has its own) but still tells the depth estimator the
         measurement noise (px).
+    record: None, or a path: the episode is also written there as a ROS 2 bag (a path ending in .mcap: one
+        MCAP file; else a rosbag2 directory), after the run and atomically, stamped at the simulated frame
+        times; an image sensor then keeps its frames (keep_frames). Needs the ros extra (rosbags).
+        ibvs.ros.record lists the topics; ibvs.ros.replay runs a tracker and the servo over the bag again.
     """
     if robot is not None and not isinstance(robot, Robot):
         raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
@@ -152,6 +157,11 @@ def run(
         vision = _vision.ImageSensor.for_target(camera, target, vision)
     elif vision is not None and not isinstance(vision, Sensor):
         raise TypeError(f"vision must be None, 'dots', 'tag' or an ibvs.sim.Sensor, got {type(vision).__name__}")
+    recording = None
+    if record is not None:  # rosbags and the directory are checked before the run
+        from ..ros.record import Recording
+
+        recording = Recording(record, vision)
     if tolerance_px is not None:
         tolerance_px = _real(tolerance_px, "tolerance_px")
         if not (math.isfinite(tolerance_px) and tolerance_px > 0):
@@ -184,7 +194,7 @@ def run(
         boundary_margin=_real(boundary_margin, "boundary_margin"),
         boundary_gain=_real(boundary_gain, "boundary_gain"),
         standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
-        sensor=vision,
+        sensor=vision if recording is None else recording.sensor,
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
     history = History(
@@ -211,6 +221,12 @@ def run(
         d["final_rotation_error"],
         *peak_speeds(history),
     )
-    return Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
-                  target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision,
-                  tolerance=tolerance, tolerance_px=tolerance_px, measured_desired=d["measured_desired"])
+    result = Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
+                    target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision,
+                    tolerance=tolerance, tolerance_px=tolerance_px, measured_desired=d["measured_desired"])
+    if recording is not None:
+        recording.write(result, servo, dict(duration=duration, noise=noise, latency=latency, depth=depth, seed=seed,
+                                            depth_scale=depth_scale, boundary_margin=boundary_margin,
+                                            boundary_gain=boundary_gain, tolerance=tolerance,
+                                            tolerance_px=tolerance_px))
+    return result

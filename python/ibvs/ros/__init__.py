@@ -1,0 +1,1 @@
+"""ibvs.ros (placeholder)."""
