@@ -159,7 +159,7 @@ def run(
         raise TypeError(f"vision must be None, 'dots', 'tag' or an ibvs.sim.Sensor, got {type(vision).__name__}")
     recording = None
     if record is not None:  # rosbags and the directory are checked before the run
-        from ..ros.record import Recording
+        from ..ros.recorder import Recording
 
         recording = Recording(record, vision)
     if tolerance_px is not None:

@@ -31,8 +31,8 @@ from .. import __version__
 from . import config as cfg
 from . import types as t
 from .bag import BagWriter
-from .camera_info import camera_info
-from .image import image_msg
+from .cameras import camera_info
+from .images import image_msg
 from .joints import float64_array
 from .tf import tf_message
 from .twist import twist_msg

@@ -32,10 +32,10 @@ from .._core import DepthEstimator, PlanarPose
 from . import config as cfg
 from . import types as t
 from .bag import BagWriter, messages, topics
-from .camera_info import camera_model
-from .image import gray8
+from .cameras import camera_model
+from .images import gray8
 from .joints import array_of, joint_positions
-from .record import CAMERA, TARGET, TOPICS, WORLD
+from .recorder import CAMERA, TARGET, TOPICS, WORLD
 from .tf import transforms
 from .twist import twist_msg
 
@@ -338,4 +338,3 @@ def recorded_twists(bag, topic: str = TOPICS["twist"]) -> Dict[int, np.ndarray]:
     return {t.stamp_ns(m, topic): twist_of(m) for _, _, m in messages(bag, [topic])}
 
 
-__all__ = ["DEPTH_MODES", "REPLAY_TWIST_TOPIC", "Replay", "recorded_twists", "replay", "write_bag"]

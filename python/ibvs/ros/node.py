@@ -1,0 +1,263 @@
+"""The servo node's logic, without ROS: ServoNodeCore takes messages and a clock and returns messages.
+
+    core = ServoNodeCore(NodeParams(desired_pixels=goal_px, depth=0.5), clock=lambda: now_ns)
+    core.on_camera_info(info_msg)                 # sensor_msgs/CameraInfo (any class with its fields)
+    core.on_joint_state(joint_state_msg)          # for output="joint_velocities"
+    out = core.on_image(image_msg)                # -> the command to publish (or None before camera_info)
+    out = core.tick()                             # the watchdog, at a fixed rate: ramps down without images
+
+Each image: the tracker (dots or tag) finds the points, the camera model normalises them, the servo
+(a scheme of ibvs.study.schemes with the gain, damping and speed limits) computes the camera twist,
+which goes out as a geometry_msgs/TwistStamped (in the camera frame, or at the mount frame of eMc:
+moveit_servo's input) or, through ibvs.JointMapping and the arm's Jacobian, as joint velocities
+(std_msgs/Float64MultiArray for ros2_control's JointGroupVelocityController, or a one-point
+trajectory_msgs/JointTrajectory).
+
+The lost-feature stop: when the features are lost (a point not tracked, the tag not found), or an
+image is malformed, or no image comes, the last good twist is ramped down linearly to zero over
+lost_timeout seconds (tick() keeps ramping between images), then the command is zero ("stopped");
+the servo resumes with the next image in which every point is found (a dot tracker that lost a dot
+must be restarted: reset()). A malformed message never raises: its error, naming the field, is in
+last_error and counted in bad_messages.
+
+ibvs.ros.ros2_node wraps this class in an rclpy node (ibvs-ros2-servo); the wrapper only moves
+messages, parameters and the clock in and out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+
+from .._core import CameraModel, JointMapping, PartitionedServo
+from . import types as t
+from .cameras import camera_model
+from .images import gray8
+from .joints import float64_array, joint_positions, joint_trajectory
+from .twist import twist_msg
+
+#: What the node can publish.
+OUTPUTS = ("twist", "joint_velocities", "joint_trajectory")
+
+
+@dataclass
+class NodeParams:
+    """The servo node's parameters (the ROS node declares each as a ROS parameter of the same name).
+
+    desired_pixels  (N, 2) the goal's pixels (teach by showing: where the tracker saw the points at the goal)
+    depth           the goal depth(s), metres: one for all points, or N (the servo's depth, constant)
+    scheme, gain    a scheme of ibvs.study.schemes ("polar", "cartesian"...) and its gain (1/s)
+    damping         of the servo's least squares (0: none)
+    max_linear_speed, max_angular_speed   m/s, rad/s: the twist is scaled down within them
+    tracker         "dots" (ibvs.vision.DotTracker, started at initial_pixels, default the desired ones)
+                    or "tag" (ibvs.vision.TagDetector of tag_ids)
+    output          "twist" (TwistStamped), "joint_velocities" (Float64MultiArray) or "joint_trajectory"
+    eMc             (4, 4) mount (end effector) <- camera: for joint velocities, and for twist_frame="mount"
+    twist_frame     "camera": the twist in camera_frame; "mount": the same motion as the mount frame's
+                    twist (mount_frame's axes, at its origin)
+    joint_names     the arm's joints, in the order of the Jacobian (joint velocity outputs)
+    max_joint_speed rad/s (or m/s) per joint, or one for all; None: no limit
+    lost_timeout    seconds over which the last twist ramps down to zero once the features are lost
+    """
+
+    desired_pixels: Sequence = ()
+    depth: object = 0.5
+    scheme: str = "polar"
+    gain: float = 0.5
+    damping: float = 0.0
+    max_linear_speed: float = 0.1
+    max_angular_speed: float = 0.5
+    tracker: str = "dots"
+    initial_pixels: Optional[Sequence] = None
+    tag_ids: Sequence[int] = (0,)
+    output: str = "twist"
+    eMc: Optional[Sequence] = None
+    twist_frame: str = "camera"
+    camera_frame: str = "camera_optical_frame"
+    mount_frame: str = "tool0"
+    joint_names: Sequence[str] = ()
+    max_joint_speed: Optional[object] = None
+    lost_timeout: float = 0.2
+    fps: float = 30.0
+
+
+def _check(p: NodeParams):
+    desired = np.asarray(p.desired_pixels, dtype=np.float64)
+    if desired.ndim == 1 and desired.size % 2 == 0:
+        desired = desired.reshape(-1, 2)
+    if desired.ndim != 2 or desired.shape[1] != 2 or len(desired) < 3 or not np.isfinite(desired).all():
+        raise ValueError(f"desired_pixels must be N >= 3 finite pixels (N, 2) or 2N numbers, got shape "
+                         f"{np.asarray(p.desired_pixels).shape}")
+    n = len(desired)
+    z = np.broadcast_to(np.asarray(p.depth, dtype=np.float64), (n,)) if np.size(p.depth) in (1, n) else None
+    if z is None or not (np.isfinite(z).all() and (z > 0).all()):
+        raise ValueError(f"depth must be one or {n} finite depths > 0 (metres), got {p.depth!r}")
+    if p.tracker not in ("dots", "tag"):
+        raise ValueError(f"tracker must be 'dots' or 'tag', got {p.tracker!r}")
+    if p.output not in OUTPUTS:
+        raise ValueError(f"output must be one of {OUTPUTS}, got {p.output!r}")
+    if p.twist_frame not in ("camera", "mount"):
+        raise ValueError(f"twist_frame must be 'camera' or 'mount', got {p.twist_frame!r}")
+    for name in ("gain", "max_linear_speed", "max_angular_speed", "lost_timeout", "fps"):
+        x = getattr(p, name)
+        if not (isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0):
+            raise ValueError(f"{name} must be a number > 0, got {x!r}")
+    eMc = None
+    if p.eMc is not None:
+        eMc = np.asarray(p.eMc, dtype=np.float64).reshape(4, 4) if np.size(p.eMc) == 16 else None
+        if eMc is None or not np.isfinite(eMc).all() or not np.allclose(eMc[3], [0, 0, 0, 1]):
+            raise ValueError("eMc must be a finite 4x4 transform (16 numbers, row by row)")
+    if (p.output != "twist" or p.twist_frame == "mount") and eMc is None:
+        raise ValueError(f"eMc: output {p.output!r} / twist_frame {p.twist_frame!r} needs the camera's mounting")
+    if p.output != "twist" and not p.joint_names:
+        raise ValueError(f"joint_names: output {p.output!r} needs the arm's joint names")
+    return desired, z.copy(), eMc
+
+
+class ServoNodeCore:
+    """The servo node without ROS (see the module docstring). clock() returns the time in integer
+    nanoseconds (the node's ROS clock; a fake one in tests). jacobian(q) -> (6, n), the mount frame's
+    Jacobian in its own frame (ibvs.sim.UrdfRobot.kinematics(q)[1]), for the joint velocity outputs.
+    types: the message classes to build (see ibvs.ros.types; None: rosbags')."""
+
+    def __init__(self, params: NodeParams, clock: Callable[[], int], jacobian=None, types=None):
+        from ..study import schemes
+
+        self.params, self.clock, self.types = params, clock, types
+        self.desired, self.depth, self.eMc = _check(params)
+        n = len(self.desired)
+        if params.scheme not in schemes.SCHEMES:
+            raise ValueError(f"scheme must be one of {sorted(schemes.SCHEMES)}, got {params.scheme!r}")
+        if params.scheme == "partitioned":
+            self.servo = PartitionedServo(n, float(params.gain), damping=float(params.damping),
+                                          max_linear_speed=float(params.max_linear_speed),
+                                          max_angular_speed=float(params.max_angular_speed))
+        else:
+            self.servo = schemes.make(params.scheme, float(params.gain), n)
+            self.servo.damping = float(params.damping)
+            self.servo.max_linear_speed = float(params.max_linear_speed)
+            self.servo.max_angular_speed = float(params.max_angular_speed)
+        self.mapping = None
+        if params.output != "twist":
+            if jacobian is None:
+                raise ValueError(f"jacobian: output {params.output!r} needs the arm's Jacobian, jacobian(q) -> (6, n)")
+            self.mapping = JointMapping(len(params.joint_names), self.eMc, max_joint_speed=params.max_joint_speed)
+        self.jacobian = jacobian
+        self.camera: Optional[CameraModel] = None
+        self.uv_desired = None
+        self.tracker = None
+        self.q = None
+        self.last_twist = np.zeros(6)
+        self.last_good_ns: Optional[int] = None
+        self.state = "waiting"  # waiting (no camera_info or image yet), servoing, ramping, stopped
+        self.last_error = ""
+        self.bad_messages = 0
+
+    # ------------------------------------------------------------------ inputs
+
+    def on_camera_info(self, msg) -> None:
+        """The camera model (the first valid one is kept; a different one later is taken too)."""
+        try:
+            cam = camera_model(msg, float(self.params.fps))
+            uv_desired = cam.normalize(self.desired)
+        except (TypeError, ValueError) as e:
+            self._bad(f"camera_info: {e}" if not str(e).startswith("camera_info") else str(e))
+            return
+        if self.camera is None or not (cam == self.camera):
+            self.camera, self.uv_desired = cam, uv_desired
+            self._new_tracker()
+
+    def on_joint_state(self, msg) -> None:
+        """The arm's joint positions (for the joint velocity outputs)."""
+        try:
+            self.q = joint_positions(msg, list(self.params.joint_names) or None)
+        except (TypeError, ValueError) as e:
+            self._bad(str(e))
+
+    def on_image(self, msg):
+        """One camera image: the command to publish (the servo's, or the lost-feature ramp), or None
+        while there is no camera_info."""
+        if self.camera is None:
+            self.last_error = "image before camera_info: no camera model yet"
+            return None
+        try:
+            image = gray8(msg)
+            if image.shape != (int(self.camera.height), int(self.camera.width)):
+                raise ValueError(f"image: {image.shape[1]} x {image.shape[0]} pixels, the camera_info says "
+                                 f"{int(self.camera.width)} x {int(self.camera.height)}")
+        except (TypeError, ValueError) as e:
+            self._bad(str(e))
+            return self.tick()
+        pixels = self.tracker.track(image).pixels
+        uv = self.camera.normalize(pixels, invalid="nan")
+        if not np.isfinite(uv).all():
+            self.last_error = "features lost"
+            return self.tick()
+        result = self.servo.update(uv, self.depth, self.uv_desired, self.depth)
+        if str(result.status).endswith("invalid_input"):
+            self.last_error = "the servo refused the features (invalid_input)"
+            return self.tick()
+        self.last_twist = np.array(result.velocity)
+        self.last_good_ns = int(self.clock())
+        self.state = "servoing"
+        return self._command(self.last_twist)
+
+    def tick(self):
+        """The watchdog (call it at a fixed rate): while no good image has come for a while, the last
+        twist ramped down to zero over lost_timeout, then zero. None before the first good image."""
+        if self.last_good_ns is None:
+            return None
+        age = (int(self.clock()) - self.last_good_ns) / t.NS
+        if age <= 0:
+            return self._command(self.last_twist)
+        scale = max(0.0, 1.0 - age / float(self.params.lost_timeout))
+        self.state = "ramping" if scale > 0 else "stopped"
+        return self._command(scale * self.last_twist)
+
+    def reset(self) -> None:
+        """Start over: the tracker restarted at its initial pixels, no last twist (the next command is the
+        servo's)."""
+        self._new_tracker()
+        self.last_twist, self.last_good_ns, self.state = np.zeros(6), None, "waiting"
+        if hasattr(self.servo, "reset"):
+            self.servo.reset()
+
+    # ------------------------------------------------------------------ internals
+
+    def _bad(self, message: str) -> None:
+        self.last_error = message
+        self.bad_messages += 1
+
+    def _new_tracker(self) -> None:
+        from .. import vision
+
+        if self.camera is None:
+            return
+        size = (int(self.camera.width), int(self.camera.height))
+        n = len(self.desired)
+        if self.params.tracker == "dots":
+            self.tracker = vision.DotTracker(n, size)
+            start = self.desired if self.params.initial_pixels is None else self.params.initial_pixels
+            self.tracker.reset(np.asarray(start, dtype=np.float64).reshape(n, 2))
+        else:
+            self.tracker = vision.TagDetector(tuple(self.params.tag_ids), image_size=size)
+
+    def _command(self, twist: np.ndarray):
+        p, ns = self.params, int(self.clock())
+        if p.output == "twist":
+            if p.twist_frame == "camera":
+                return twist_msg(twist, self.types, p.camera_frame, ns)
+            R, r = self.eMc[:3, :3], self.eMc[:3, 3]
+            w = R @ twist[3:]
+            return twist_msg(np.concatenate([R @ twist[:3] + np.cross(r, w), w]), self.types, p.mount_frame, ns)
+        n = len(p.joint_names)
+        if self.q is None or not twist.any():
+            qdot = np.zeros(n)  # no joint state yet, or a stop: zero velocities
+        else:
+            J = np.asarray(self.jacobian(self.q), dtype=np.float64)
+            qdot = self.mapping.update(twist, J).qdot
+        if p.output == "joint_velocities":
+            return float64_array(qdot, self.types, "joints")
+        return joint_trajectory(qdot, list(p.joint_names), self.types, ns)
