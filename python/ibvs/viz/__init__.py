@@ -15,7 +15,8 @@ a notebook cell, or pass fig=plt.figure() to draw into a figure that pyplot mana
 plt.show() shows it). Needs matplotlib: pip install ".[plot]" from the repository root.
 
 Modules: episode_figure (episode), comparison (compare), fig4 (image_limits), sweep_figure
-(sweep_summary), animation (animate) and drawing (the helpers, colours and styles they share);
+(sweep_summary), animation (animate), rerun_log (rerun: Rerun, the rerun extra) and drawing (the
+helpers, colours and styles they share);
 this package re-exports their public functions.
 
 Colours and styles are the same in every panel: one colour per target point, one line style
@@ -30,7 +31,8 @@ from .comparison import compare
 from .drawing import AXIS_COLOURS, COORDINATE_STYLES, TWIST_LABELS
 from .episode_figure import episode
 from .fig4 import image_limits, image_limits_paths, square_perimeter_r
+from .rerun_log import rerun
 from .sweep_figure import sweep_summary
 
 __all__ = ["AXIS_COLOURS", "COORDINATE_STYLES", "TWIST_LABELS", "animate", "compare", "episode", "image_limits",
-           "image_limits_paths", "square_perimeter_r", "sweep_summary"]
+           "image_limits_paths", "rerun", "square_perimeter_r", "sweep_summary"]
