@@ -5,6 +5,7 @@
             shared by several commands
     run     `ibvs run`: one episode
     sweep   `ibvs sweep`: many episodes, a table and a figure
+    replay  `ibvs replay`: a ROS 2 bag through a tracker and the servo
 
 This package imports nothing itself, so that `ibvs.bench` can use ibvs.cli.args without the
 whole command line.

@@ -4,15 +4,16 @@
     ibvs run --world W --scheme S --case C ...    one simulated episode (--plot, --animate)
     ibvs bench [...]                              control-step timings, bindings vs numpy
     ibvs sweep --out F.csv [--scenario S.toml]    thousands of episodes per scheme, aggregate tables
+    ibvs replay BAG --out twists.csv              a ROS 2 bag's images through a tracker and the servo
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
 Every bad argument exits with status 2 and one line before any work starts; every output path
-(--out, --plot, --animate, --video, --figure) is tried for writing then. An interrupted sweep
+(--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out) is tried for writing then. An interrupted sweep
 (Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
 sweep whose Dask scheduler dies (exit status 1).
 
 Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
-sweep`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
+sweep`), replay (`ibvs replay`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import sys
 import ibvs
 
 from . import args as a
-from . import run, sweep
+from . import replay, run, sweep
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run.add_parser(sub)
     sweep.add_parser(sub)
+    replay.add_parser(sub)
 
     b = sub.add_parser("bench", help="time the control step through the bindings next to numpy",
                        description="Time the control step through the bindings next to a numpy reference.")
@@ -72,5 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         return run.command(args)
     if args.command == "sweep":
         return sweep.command(args)
+    if args.command == "replay":
+        return replay.command(args)
     parser.print_help()
     return 0

@@ -38,6 +38,11 @@ def add_parser(sub) -> None:
     one.add_argument("--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
                      help="with --vision: the camera frames with detected (green) and desired (red) points, "
                           ".mp4 (imageio-ffmpeg; else a GIF, with a message) or .gif")
+    one.add_argument("--record", type=a.out_file(".mcap"), metavar="FILE.mcap",
+                     help="also write the episode as a ROS 2 bag, one MCAP file (topics in docs/ros.md; needs the ros "
+                          "extra)")
+    one.add_argument("--rerun", type=a.out_file(".rrd"), metavar="FILE.rrd",
+                     help="also log the episode to a Rerun recording (needs the rerun extra)")
     one.add_argument("--speed", type=a.number(0, 1000, open_lo=True), default=1.0,
                      help="animation speed: simulated seconds per second of video (default 1, real time)")
     one.add_argument("--seed", type=a.number(0, a.SEED_MAX, integer=True), default=0, help="seed of the noise")
@@ -79,6 +84,12 @@ def command(args) -> int:
                             f"({frames} frames)")
     if (args.depth or reproduce.DEPTH[args.world]) == "pose" and not c.target.planar:
         a.fail(prog, "argument --depth: pose needs a planar target")
+    for option, check in (("--record", args.record and _rosbags), ("--rerun", args.rerun and _rerun)):
+        if check:
+            try:
+                check()
+            except ImportError as e:
+                a.fail(prog, f"argument {option}: {e}")
     sensor = None
     if args.video and not args.vision:
         a.fail(prog, "argument --video: needs --vision dots or --vision tag")
@@ -89,13 +100,14 @@ def command(args) -> int:
             a.fail(prog, f"argument --vision: {e}")
         try:
             sensor = vision.ImageSensor.for_target(vision.image_camera(c.camera), c.target, args.vision,
-                                                   keep_frames=bool(args.video))
+                                                   keep_frames=bool(args.video or args.rerun))
         except ValueError as e:
             a.fail(prog, f"argument --vision: {e}")
     case_obj, result = reproduce.run_one(args.world, case, args.scheme, duration=duration, noise=args.noise,
                                          latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
                                          tolerance=a.tolerance_of(args), tolerance_px=args.tolerance_px,
-                                         case_object=c, angle_wrap=args.angle_wrap, vision=sensor)
+                                         case_object=c, angle_wrap=args.angle_wrap, vision=sensor,
+                                         record=args.record)
     row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
     from ..study.schemes import TITLES
 
@@ -124,4 +136,23 @@ def command(args) -> int:
         desired = cam.project(result.uv_desired)
         written = vision.write_video(args.video, sensor.frames, pixels, desired, fps=cam.fps)
         print(f"  {'video':{width}s}  {written} ({len(sensor.frames)} frames)")
+    if args.record:
+        print(f"  {'bag':{width}s}  {args.record}")
+    if args.rerun:
+        from .. import viz
+
+        viz.rerun(result, path=args.rerun, labels=[f"{args.world}_{case}_{args.scheme}"])
+        print(f"  {'rerun':{width}s}  {args.rerun}")
     return 0 if result.status.outcome == "converged" else 1
+
+
+def _rosbags() -> None:
+    from ..ros import types
+
+    types.typestore()
+
+
+def _rerun() -> None:
+    from ..viz.rerun_log import rerun_module
+
+    rerun_module()

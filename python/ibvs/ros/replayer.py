@@ -76,7 +76,7 @@ class Replay:
             w = csv.writer(f)
             w.writerow(head)
             for k in range(len(self)):
-                row = [k, int(self.stamps[k]), repr(self.stamps[k] / t.NS)] + \
+                row = [k, int(self.stamps[k]), repr(int(self.stamps[k]) / t.NS)] + \
                     [repr(float(x)) for x in self.pixels[k].reshape(-1)] + \
                     [repr(float(x)) for x in self.twist[k]] + [self.status[k]]
                 if self.joints is not None:

@@ -65,10 +65,10 @@ def is_rosbags(cls) -> bool:
     return dataclasses.is_dataclass(cls) and hasattr(cls, "__msgtype__")
 
 
-def make(types, name: str, **fields):
+def make(types, msgtype: str, /, **fields):
     """A message of type `name` (e.g. "sensor_msgs/msg/Image") with these fields. Numeric arrays given as
     numpy arrays are kept for rosbags' classes and turned into lists (uint8 data into bytes) for others."""
-    cls = lookup(types)(name)
+    cls = lookup(types)(msgtype)
     if not is_rosbags(cls):
         fields = {k: (v.tobytes() if v.dtype == np.uint8 else v.tolist()) if isinstance(v, np.ndarray) else v
                   for k, v in fields.items()}

@@ -215,7 +215,7 @@ def make_case(world: str, case: str):
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
             latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
             tolerance: float | None = TOLERANCE, tolerance_px: float | None = None, case_object=None,
-            angle_wrap: str = "consistent", vision=None):
+            angle_wrap: str = "consistent", vision=None, record=None):
     """Simulate one (world, case, scheme) (scheme: any name in ibvs.study.schemes.SCHEMES); returns
     (case object, sim.Result). case_object replaces the named case (e.g. another angle);
     angle_wrap is set on the scheme's ibvs.Servo. tolerance, tolerance_px: as in ibvs.sim.run
@@ -232,7 +232,7 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
     result = sim.run(servo, camera, c.target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
                      depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance,
-                     tolerance_px=tolerance_px, vision=vision)
+                     tolerance_px=tolerance_px, vision=vision, record=record)
     return c, result
 
 

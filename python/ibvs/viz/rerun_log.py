@@ -32,7 +32,8 @@ from .drawing import as_results, is_pixel_camera, run_labels
 TWIST_NAMES = ("Tx", "Ty", "Tz", "wx", "wy", "wz")
 
 
-def _rerun():
+def rerun_module():
+    """The rerun module, or an ImportError saying how to install rerun-sdk."""
     try:
         import rerun as rr
     except ImportError as e:
@@ -104,7 +105,7 @@ def rerun(results, recording=None, path=None, labels: Optional[Sequence[str]] = 
     into `recording` (an rr.RecordingStream; default a new one, application id "ibvs"), and, with
     `path`, saved as an .rrd file (written beside it and renamed when complete). labels: one per run
     (default their titles). Returns the RecordingStream (rr.notebook_show, .spawn() to look at it)."""
-    rr = _rerun()
+    rr = rerun_module()
     runs = as_results(results)
     names = [_entity(x) for x in run_labels(runs, labels)]
     names = [f"{n}_{i}" if names.count(n) > 1 else n for i, n in enumerate(names)]
