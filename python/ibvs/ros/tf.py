@@ -39,10 +39,11 @@ def quaternion(R) -> np.ndarray:
 def rotation(q) -> np.ndarray:
     """The rotation matrix of a quaternion (x, y, z, w), normalised first (it must not be zero)."""
     q = np.asarray(q, dtype=np.float64)
-    n = np.linalg.norm(q)
-    if not (np.isfinite(q).all() and n > 0):
+    big = np.abs(q).max() if q.size else 0.0
+    if not (np.isfinite(q).all() and big > 0):
         raise ValueError(f"quaternion must be finite and non-zero, got {q.tolist()}")
-    x, y, z, w = q / n
+    q = q / big  # scaled first: the norm of 1e300 or 1e-300 components neither overflows nor underflows
+    x, y, z, w = q / np.linalg.norm(q)
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
