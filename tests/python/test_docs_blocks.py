@@ -90,6 +90,17 @@ NOT_RUN = {
         "the development set-up builds everything twice (minutes); .ci/run builds and tests the same way",
     ("docs/sweeps.md", "dask scheduler"):
         "it starts servers, one per terminal: tests/python/test_sweep_cluster.py runs these commands",
+    ("docs/ros.md", "ibvs replay my_robot_bag"):
+        "a real robot's bag, which the repository does not hold; tests/python/test_ros_replay.py replays a bag "
+        "without /ibvs/config the same way",
+    ("docs/ros.md", "ros2 launch"):
+        "it needs ROS 2 (ros2 launch, rclpy), which the machine that tests ibvs does not have; "
+        "tests/python/test_ros_node.py tests the node's logic and compiles the launch file",
+    ("docs/installation.md", "pip wheel . -w dist"):
+        "it builds the package (minutes from a clean checkout); .ci/run builds, installs and tests the wheel",
+    ("docs/installation.md", "cibuildwheel"):
+        "cibuildwheel builds Linux wheels in manylinux containers (Docker or Podman), which this machine does not "
+        "run",
     ("docs/benchmarks.md", "--realtime"):
         "minutes of timing, taskset pinning and SCHED_FIFO (root); tests/python/test_bench.py runs the same "
         "programs briefly",
@@ -116,6 +127,9 @@ PRINTS = {
     ("docs/control-law.md", "ibvs.PartitionedServo(4, gain=1.0)"): ["cartesian    Tz"],
     ("docs/control-law.md", "max_linear_speed=0.5, max_angular_speed=1.0"): ["True 0.0625"],
     ("docs/beyond.md", "docs/scripts/gain_saturation.py"): ["| z_rotation | polar | gain 1 | converged | 13.2 |"],
+    ("docs/ros.md", 'record="gantry.mcap"'): ["largest difference from the recorded twists: 0"],
+    ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
+    ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
 }
 
 

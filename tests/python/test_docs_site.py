@@ -3,7 +3,7 @@
 - `mkdocs build --strict` succeeds offline, in a temporary directory: mkdocs.yml turns every unrecognised link, missing
   page or file and missing anchor into a warning, which --strict makes an error; the built pages load nothing from the
   network. Needs the `docs` extra: skipped without MkDocs.
-- Every public name of ibvs, ibvs.sim, ibvs.vision, ibvs.study and ibvs.viz (its __all__, or its public definitions)
+- Every public name of ibvs, ibvs.sim, ibvs.vision, ibvs.study, ibvs.viz and ibvs.ros (its __all__, or its public definitions)
   has a non-empty docstring and a place in the API reference; so has every public member of the compiled classes,
   read from the stub _core.pyi as the reference reads it.
 """
@@ -25,10 +25,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 MODULES = ["ibvs", "ibvs.sim", "ibvs.sim.cases", "ibvs.vision", "ibvs.viz", "ibvs.study", "ibvs.study.schemes",
-           "ibvs.study.scenario", "ibvs.study.sweep", "ibvs.study.reproduce"]
+           "ibvs.study.scenario", "ibvs.study.sweep", "ibvs.study.reproduce", "ibvs.ros"]
 # The API pages: which module each documents (::: directives).
 PAGES = {"api/ibvs": ["ibvs"], "api/sim": ["ibvs.sim", "ibvs.sim.cases"], "api/vision": ["ibvs.vision"],
-         "api/viz": ["ibvs.viz"],
+         "api/viz": ["ibvs.viz"], "api/ros": ["ibvs.ros"],
          "api/study": ["ibvs.study", "ibvs.study.schemes", "ibvs.study.scenario", "ibvs.study.sweep",
                        "ibvs.study.reproduce"]}
 # Any attempt to reach the network goes to a closed local port and fails.

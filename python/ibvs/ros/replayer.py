@@ -262,7 +262,7 @@ def replay(bag, image_topic: str = TOPICS["image"], camera_info_topic: str = TOP
     status = [""] * K
     camera_pose = [poses.get(s) for s in stamps]
     z = np.full(n, np.nan)
-    have_pose, last_pose = False, None
+    have_pose, last_depths = False, None
     for k in range(K):
         pixels[k] = track.track(gray8(images[k])).pixels
         if not np.isfinite(pixels[k]).all():
@@ -284,13 +284,13 @@ def replay(bag, image_topic: str = TOPICS["image"], camera_info_topic: str = TOP
             world = points @ T_wt[:3, :3].T + T_wt[:3, 3]
             z = ((world - T_wc[:3, 3]) @ T_wc[:3, :3])[:, 2] * scale
         elif mode == "pose":
-            try:
-                pose, _, degenerate = planar.estimate(uv)
+            try:  # its depths are computed as the simulator's (the same C++ expression)
+                _, depths, degenerate = planar.estimate(uv)
             except ValueError:
                 degenerate = True
             if not degenerate:
-                have_pose, last_pose = True, pose
-            z = (points @ last_pose[2, :3] + last_pose[2, 3]) * scale if have_pose else np.full(n, np.nan)
+                have_pose, last_depths = True, depths
+            z = last_depths * scale if have_pose else np.full(n, np.nan)
         else:
             if k == 0:
                 estimator.reset()
