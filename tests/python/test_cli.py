@@ -49,7 +49,7 @@ def test_bench_forwards_its_options(capsys):
 
 
 def test_help_on_every_subcommand():
-    for sub in ["reproduce", "run", "bench"]:
+    for sub in ["reproduce", "run", "bench", "replay"]:
         r = cli(sub, "--help")
         assert r.returncode == 0 and "usage: ibvs" in r.stdout
 

@@ -103,6 +103,10 @@ def _unwritable() -> list:
             (["run", "--plot", f"{place}/ibvs.png"], "--plot"),
             (["run", "--animate", f"{place}/ibvs.gif"], "--animate"),
             (["run", "--video", f"{place}/ibvs.gif", "--vision", "dots"], "--video"),
+            (["run", "--record", f"{place}/ibvs.mcap"], "--record"),
+            (["run", "--rerun", f"{place}/ibvs.rrd"], "--rerun"),
+            (["replay", "/", "--out", f"{place}/ibvs.csv"], "--out"),
+            (["replay", "/", "--out", "t.csv", "--bag-out", f"{place}/ibvs.mcap"], "--bag-out"),
         ]
     return out
 

@@ -23,8 +23,9 @@ from .node import NodeParams, ServoNodeCore
 COMMAND_TOPICS = {"twist": "cmd_twist", "joint_velocities": "joint_velocities", "joint_trajectory": "joint_trajectory"}
 
 
-def _declare(node) -> NodeParams:
-    """NodeParams from the node's ROS parameters (declared with NodeParams' defaults)."""
+def _declare(node, descriptor) -> NodeParams:
+    """NodeParams from the node's ROS parameters (declared with NodeParams' defaults, dynamically typed:
+    depth is one number or a list)."""
     defaults = NodeParams()
     values = {}
     for f in dataclasses.fields(NodeParams):
@@ -35,11 +36,14 @@ def _declare(node) -> NodeParams:
                        "max_joint_speed": 0.0, "tag_ids": [0]}.get(f.name, default)
         elif isinstance(default, tuple):
             default = list(default)
-        values[f.name] = node.declare_parameter(f.name, default).value
+        values[f.name] = node.declare_parameter(f.name, default, descriptor).value
     for name, unset in (("initial_pixels", [0.0]), ("eMc", [0.0]), ("joint_names", [""]), ("max_joint_speed", 0.0)):
         if values[name] == unset:
             values[name] = None if name != "joint_names" else ()
     node.declare_parameter("urdf", "")
+    for name in ("tag_ids", "joint_names", "desired_pixels", "initial_pixels", "eMc"):
+        if values[name] is not None:
+            values[name] = list(values[name])
     return NodeParams(**values)
 
 
@@ -47,6 +51,7 @@ def main(argv=None) -> int:
     """Run the node until shut down (Ctrl-C)."""
     try:
         import rclpy
+        from rcl_interfaces.msg import ParameterDescriptor
         from rclpy.node import Node
         from rosidl_runtime_py.utilities import get_message
     except ImportError:
@@ -55,7 +60,7 @@ def main(argv=None) -> int:
         return 2
     rclpy.init(args=sys.argv if argv is None else argv)
     node = Node("ibvs_servo")
-    params = _declare(node)
+    params = _declare(node, ParameterDescriptor(dynamic_typing=True))
     jacobian = None
     if params.output != "twist":
         from ..sim import UrdfRobot
