@@ -188,3 +188,17 @@ def test_cli_run_record_and_rerun(tmp_path):
                          capture_output=True, text=True, timeout=120,
                          env=dict(os.environ, PYTHONPATH=str(Path(ibvs.__file__).resolve().parents[1])))
     assert bad.returncode == 2 and "argument --record: 'g.bag' must end in .mcap" in bad.stderr
+
+
+def test_record_a_urdf_arm_names_its_joints_and_mount_frame(tmp_path):
+    pytest.importorskip("pinocchio", reason="the robots extra is not installed")
+    case = sim.cases.arm_general_motion("panda")
+    r = sim.run(ibvs.Servo(ibvs.Layout.polar(4), gain=1.0), case.camera, case.target, case.start, case.goal,
+                robot=case.robot, duration=0.1, depth="pose", record=tmp_path / "arm.mcap")
+    names = list(case.robot.joint_names)
+    assert names[0] == "panda_joint1" and len(names) == 7
+    states = [m for _, _, m in ros.messages(tmp_path / "arm.mcap", ["/joint_states"])]
+    assert len(states) == len(r.history) and list(states[0].name) == names
+    np.testing.assert_array_equal(ros.joint_positions(states[-1], names), r.history.q[-1])
+    tf = ros.transforms(next(m for _, _, m in ros.messages(tmp_path / "arm.mcap", ["/tf"])))
+    np.testing.assert_allclose(tf[("world", "panda_hand")] @ case.robot.mount, r.history.pose[0], atol=1e-14)
