@@ -84,10 +84,15 @@ def test_replay_of_a_lost_feature_stops_where_the_episode_stopped(tmp_path):
 def test_replay_a_real_robots_bag_with_arguments(tmp_path):
     """Without /ibvs/config (a real robot's bag): tracker, scheme, desired pixels and depth from the arguments."""
     r, path = record(tmp_path, "tag", "desired")
+    from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+    custom = get_typestore(Stores.ROS2_HUMBLE)  # a robot's own message type, which rosbags does not know
+    custom.register(get_types_from_msg("int32 gripper\nstring mode", "my_robot_msgs/msg/Status"))
     plain = tmp_path / "plain.mcap"
-    with ros.BagWriter(plain) as out:
+    with ros.BagWriter(plain, custom) as out:
         for topic, ns, msg in ros.messages(path, ["/camera/image_raw", "/camera/camera_info"]):
             out.write(topic, msg, ns)
+        out.write("/status", custom.types["my_robot_msgs/msg/Status"](gripper=3, mode="auto"), 5)
     with pytest.raises(ValueError, match="desired_pixels: the bag has no /ibvs/config"):
         ros.replay(plain, tracker="tag", scheme="polar")
     with pytest.raises(ValueError, match="tracker: give 'dots' or 'tag'"):
@@ -99,6 +104,10 @@ def test_replay_a_real_robots_bag_with_arguments(tmp_path):
     for k in range(3):
         expected = servo.update(r.camera.normalize(r.history.measured[k]), r.depth_desired, uv_d, r.depth_desired)
         np.testing.assert_array_equal(rep.twist[k], expected.velocity)
+    counts = ros.write_bag(rep, plain, tmp_path / "out.mcap")  # the robot's own types copied as they are
+    assert counts["/status"] == 1 and counts[ros.REPLAY_TWIST_TOPIC] == len(rep)
+    (status,) = [m for _, _, m in ros.messages(tmp_path / "out.mcap", ["/status"])]
+    assert (status.gripper, status.mode) == (3, "auto")
     with pytest.raises(ValueError, match="initial_pixels: the dot tracker needs the dots' pixels"):
         ros.replay(plain, tracker="dots", scheme="polar", desired_pixels=r.measured_desired, depth_desired=0.5)
 

@@ -7,7 +7,7 @@ an error or Ctrl-C (SIGINT) while writing leaves no half bag, and the file a pat
 as it was.
 
 messages(path, topics) reads a bag (a directory or a bare .mcap file) message by message;
-topics(path) lists its topics, types and counts.
+topics(path) lists its topics, types and counts; copy(path, writer) copies a bag into a BagWriter as it is.
 """
 
 from __future__ import annotations
@@ -64,13 +64,18 @@ class BagWriter:
     def write(self, topic: str, msg, stamp_ns: int) -> None:
         """Write msg (its type is msg.__msgtype__) on topic at stamp_ns (the bag's log time)."""
         msgtype = msg.__msgtype__
+        self.write_raw(topic, msgtype, self.typestore.serialize_cdr(msg, msgtype), stamp_ns)
+
+    def write_raw(self, topic: str, msgtype: str, data, stamp_ns: int, typestore=None) -> None:
+        """Write a message already serialised (CDR) on topic at stamp_ns; typestore: where its type is defined
+        (default this writer's), e.g. the typestore of the bag it was read from (its own message types)."""
         conn = self._connections.get(topic)
         if conn is None:
-            conn = self._writer.add_connection(topic, msgtype, typestore=self.typestore)
+            conn = self._writer.add_connection(topic, msgtype, typestore=typestore or self.typestore)
             self._connections[topic] = conn
         elif conn.msgtype != msgtype:
             raise ValueError(f"record: topic {topic} carries {conn.msgtype}, not {msgtype}")
-        self._writer.write(conn, int(stamp_ns), self.typestore.serialize_cdr(msg, msgtype))
+        self._writer.write(conn, int(stamp_ns), data)
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
     def __exit__(self, kind, value, tb) -> None:
@@ -107,6 +112,21 @@ def _reader(path):
         raise ValueError(f"bag {str(p)!r} cannot be read ({type(e).__name__}: {e}): truncated, or not a ROS 2 "
                          f"bag (a rosbag2 directory or an .mcap file)") from None
     return reader
+
+
+def copy(path, writer: BagWriter) -> None:
+    """Every message of the bag at path into writer as it is (serialised bytes, with its own message types:
+    a real robot's bag may use types rosbags does not know)."""
+    reader = _reader(path)
+    try:
+        for conn, ns, raw in reader.messages():
+            writer.write_raw(conn.topic, conn.msgtype, raw, ns, reader.typestore)
+    except (KeyboardInterrupt, GeneratorExit):
+        raise
+    except Exception as e:
+        raise ValueError(f"bag {str(path)!r}: reading failed ({type(e).__name__}: {e}): truncated?") from None
+    finally:
+        reader.close()
 
 
 def topics(path) -> Dict[str, Tuple[str, int]]:

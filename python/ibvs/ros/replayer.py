@@ -22,6 +22,7 @@ simulator's image-boundary potential (boundary_margin > 0) is not replayed: such
 from __future__ import annotations
 
 import csv
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional
@@ -31,7 +32,7 @@ import numpy as np
 from .._core import DepthEstimator, PlanarPose
 from . import config as cfg
 from . import types as t
-from .bag import BagWriter, messages, topics
+from .bag import BagWriter, copy, messages, topics
 from .cameras import camera_model
 from .images import gray8
 from .joints import array_of, joint_positions
@@ -171,27 +172,19 @@ def replay(bag, image_topic: str = TOPICS["image"], camera_info_topic: str = TOP
     if camera is None:
         raise ValueError(f"camera_info_topic: {camera_info_topic!r} has no message")
     size = (int(camera.width), int(camera.height))
-    wanted = [image_topic] + [x for x in (joint_states_topic,) if x]
     needs_tf = mode in ("exact", "estimated")
-    if needs_tf:
-        if TOPICS["tf"] not in have:
-            raise ValueError(f"depth: {mode} needs the camera's poses on {TOPICS['tf']}, which the bag lacks")
-        wanted.append(TOPICS["tf"])
+    if needs_tf and TOPICS["tf"] not in have:
+        raise ValueError(f"depth: {mode} needs the camera's poses on {TOPICS['tf']}, which the bag lacks")
     goal_topic = goal_image_topic or (TOPICS["goal_image"] if TOPICS["goal_image"] in have else None)
-    images, stamps, poses, joints_at = [], [], {}, []
-    last_joints = None
-    for topic, ns, msg in messages(bag, wanted):
-        if topic == image_topic:
-            images.append(msg)
-            stamps.append(t.stamp_ns(msg, image_topic))
-            joints_at.append(last_joints)
-        elif topic == joint_states_topic:
-            last_joints = joint_positions(msg, joint_names)
-        else:
+    # The poses first (small); the images are then streamed, one in memory at a time.
+    poses = {}
+    if needs_tf:
+        for _, ns, msg in messages(bag, [TOPICS["tf"]]):
             tf = transforms(msg)
             if (WORLD, CAMERA) in tf:
                 poses[ns] = (tf[(WORLD, CAMERA)], tf.get((WORLD, TARGET)))
-    if not images:
+    count = have[image_topic][1]
+    if count == 0:
         raise ValueError(f"image_topic: {image_topic!r} has no message")
     n = len(config["uv_desired"]) if config.get("uv_desired") else None
     if n is None:
@@ -256,58 +249,70 @@ def replay(bag, image_topic: str = TOPICS["image"], camera_info_topic: str = TOP
             raise ValueError("initial_pixels: the dot tracker needs the dots' pixels in the first image")
         track.reset(start)
 
-    K = len(images)
+    K = count
     pixels = np.full((K, n, 2), np.nan)
     twist = np.full((K, 6), np.nan)
     status = [""] * K
-    camera_pose = [poses.get(s) for s in stamps]
+    stamps: List[int] = []
+    camera_pose: list = []
+    joints_at: list = []
+    last_joints = None
     z = np.full(n, np.nan)
     have_pose, last_depths = False, None
-    for k in range(K):
-        pixels[k] = track.track(gray8(images[k])).pixels
-        if not np.isfinite(pixels[k]).all():
-            status[k] = "lost_feature"
-            K = k + 1
-            break
-        s = k - L if k >= L else 0
-        uv = camera.normalize(pixels[s], invalid="nan")
-        if not np.isfinite(uv).all():
-            status[k] = "left_image"
-            K = k + 1
-            break
-        if mode == "desired":
-            z = z_desired * scale
-        elif mode == "exact":
-            if camera_pose[s] is None or camera_pose[s][1] is None:
-                raise ValueError(f"/tf: no world <- camera and world <- target transforms at image {s}")
-            T_wc, T_wt = camera_pose[s]
-            world = points @ T_wt[:3, :3].T + T_wt[:3, 3]
-            z = ((world - T_wc[:3, 3]) @ T_wc[:3, :3])[:, 2] * scale
-        elif mode == "pose":
-            try:  # its depths are computed as the simulator's (the same C++ expression)
-                _, depths, degenerate = planar.estimate(uv)
-            except ValueError:
-                degenerate = True
-            if not degenerate:
-                have_pose, last_depths = True, depths
-            z = last_depths * scale if have_pose else np.full(n, np.nan)
-        else:
-            if k == 0:
-                estimator.reset()
-                estimator.update(uv, np.eye(4))
-            elif k > L:
-                a, b = camera_pose[k - L - 1], camera_pose[k - L]
-                if a is None or b is None:
-                    raise ValueError(f"/tf: no world <- camera transform at images {k - L - 1} and {k - L}")
-                M = np.eye(4)
-                M[:3, :3] = a[0][:3, :3].T @ b[0][:3, :3]
-                M[:3, 3] = a[0][:3, :3].T @ (b[0][:3, 3] - a[0][:3, 3])
-                estimator.update(uv, M)
-            z = estimator.depth
-        r = servo.update(uv, z, uv_desired, z_desired)
-        status[k] = str(r.status).split(".")[-1]
-        if status[k] != "invalid_input":
-            twist[k] = r.velocity
+    stream = messages(bag, [image_topic] + [x for x in (joint_states_topic,) if x])
+    k = -1
+    with closing(stream):
+        for topic, _, msg in stream:
+            if topic != image_topic:
+                last_joints = joint_positions(msg, joint_names)
+                continue
+            k += 1
+            stamps.append(t.stamp_ns(msg, image_topic))
+            camera_pose.append(poses.get(stamps[-1]))
+            joints_at.append(last_joints)
+            pixels[k] = track.track(gray8(msg)).pixels
+            if not np.isfinite(pixels[k]).all():
+                status[k] = "lost_feature"
+                break
+            s = k - L if k >= L else 0
+            uv = camera.normalize(pixels[s], invalid="nan")
+            if not np.isfinite(uv).all():
+                status[k] = "left_image"
+                break
+            if mode == "desired":
+                z = z_desired * scale
+            elif mode == "exact":
+                if camera_pose[s] is None or camera_pose[s][1] is None:
+                    raise ValueError(f"/tf: no world <- camera and world <- target transforms at image {s}")
+                T_wc, T_wt = camera_pose[s]
+                world = points @ T_wt[:3, :3].T + T_wt[:3, 3]
+                z = ((world - T_wc[:3, 3]) @ T_wc[:3, :3])[:, 2] * scale
+            elif mode == "pose":
+                try:  # its depths are computed as the simulator's (the same C++ expression)
+                    _, depths, degenerate = planar.estimate(uv)
+                except ValueError:
+                    degenerate = True
+                if not degenerate:
+                    have_pose, last_depths = True, depths
+                z = last_depths * scale if have_pose else np.full(n, np.nan)
+            else:
+                if k == 0:
+                    estimator.reset()
+                    estimator.update(uv, np.eye(4))
+                elif k > L:
+                    a, b = camera_pose[k - L - 1], camera_pose[k - L]
+                    if a is None or b is None:
+                        raise ValueError(f"/tf: no world <- camera transform at images {k - L - 1} and {k - L}")
+                    M = np.eye(4)
+                    M[:3, :3] = a[0][:3, :3].T @ b[0][:3, :3]
+                    M[:3, 3] = a[0][:3, :3].T @ (b[0][:3, 3] - a[0][:3, 3])
+                    estimator.update(uv, M)
+                z = estimator.depth
+            r = servo.update(uv, z, uv_desired, z_desired)
+            status[k] = str(r.status).split(".")[-1]
+            if status[k] != "invalid_input":
+                twist[k] = r.velocity
+    K = k + 1
     js = None
     if joint_states_topic is not None:
         if any(j is None for j in joints_at[:K]):
@@ -324,8 +329,7 @@ def write_bag(replayed: Replay, bag_in, bag_out) -> Dict[str, int]:
     if Path(bag_out).resolve() == Path(bag_in).resolve():
         raise ValueError("bag_out: must not be the bag replayed")
     with BagWriter(bag_out, ts) as out:
-        for topic, ns, msg in messages(bag_in):
-            out.write(topic, msg, ns)
+        copy(bag_in, out)
         for s, tw in sorted(twists.items()):
             out.write(REPLAY_TWIST_TOPIC, twist_msg(tw, ts, CAMERA, s), s)
         return dict(out.counts)
