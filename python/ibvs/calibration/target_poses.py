@@ -66,8 +66,9 @@ def _pose(camera: CameraModel, px: np.ndarray, estimator: PlanarPose, name: str)
         uv = camera.normalize(px)
     except ValueError as e:
         raise ValueError(f"{name}: {e}") from None
+    spread = np.linalg.svd(px - px.mean(0), compute_uv=False)  # in pixels: points seen on a line have no pose
     pose, depth, degenerate = estimator.estimate(uv)
-    if degenerate or not np.isfinite(pose).all() or not (np.asarray(depth) > 0).all():
+    if not spread[1] > 1e-3 * spread[0] or degenerate or not np.isfinite(pose).all() or not (np.asarray(depth) > 0).all():
         raise ValueError(f"{name}: no pose of the planar target fits these pixels (collinear points, the target seen "
                          "edge-on or from behind)")
     return np.asarray(pose, dtype=float)
@@ -110,6 +111,8 @@ def target_poses(camera: CameraModel, detections, points, min_points: int = 4) -
         if d is None:
             continue
         px = _pixels(d, len(p), f"detections[{i}]")
+        if np.isinf(px).any():
+            raise ValueError(f"detections[{i}]: pixels must be finite (NaN for a point not found), got an infinity")
         found = np.isfinite(px).all(axis=1)
         if found.sum() < min_points:
             continue

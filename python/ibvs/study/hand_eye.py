@@ -193,11 +193,12 @@ def summarise(rows: Sequence[dict]) -> list[dict]:
 def format_mount_errors(summary: Sequence[dict], cells: Sequence[tuple] = ((0, 0), (2.5, 1.25), (5, 2.5), (10, 0),
                                                                             (0, 5), (7.5, 3.75), (10, 5))) -> str:
     """A Markdown table: one row per scheme, one column per (rotation_deg, translation_cm) error, each cell "converged
-    share · median slowdown"."""
+    share · median slowdown", and the outcomes of the runs that did not converge at the last cell's error."""
     by = {(s["scheme"], s["rotation_deg"], s["translation_cm"]): s for s in summary}
     schemes = list(dict.fromkeys(s["scheme"] for s in summary))
-    lines = ["| scheme | " + " | ".join(f"{a:g}°, {t:g} cm" for a, t in cells) + " |",
-             "|---|" + "---:|" * len(cells)]
+    a_last, t_last = cells[-1]
+    lines = ["| scheme | " + " | ".join(f"{a:g}°, {t:g} cm" for a, t in cells) +
+             f" | not converged at {a_last:g}°, {t_last:g} cm |", "|---|" + "---:|" * len(cells) + "---|"]
     for scheme in schemes:
         row = []
         for a, t in cells:
@@ -207,6 +208,9 @@ def format_mount_errors(summary: Sequence[dict], cells: Sequence[tuple] = ((0, 0
                 continue
             slow = "n/a" if not math.isfinite(s["slowdown"]) else f"×{s['slowdown']:.2f}"
             row.append(f"{100 * s['converged']:.0f} % · {slow}")
+        last = by.get((scheme, float(a_last), float(t_last)))
+        failed = last["failed"] if last else {}
+        row.append(", ".join(f"{n} {k}" for k, n in sorted(failed.items(), key=lambda x: -x[1])) or "—")
         lines.append(f"| {TITLES.get(scheme, scheme)} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
