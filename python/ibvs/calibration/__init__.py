@@ -11,7 +11,7 @@ ibvs.sim.collect_hand_eye moves a simulated arm through stations and returns suc
 (docs/hand-eye.md). Importing this package needs numpy only: OpenCV (the vision extra) is imported by
 calibrate_hand_eye when it runs.
 
-Modules: hand_eye (calibrate_hand_eye, HandEyeResult, METHODS, the conventions), target_poses (target_pose,
+Modules: hand_eye (calibrate_hand_eye, HandEyeResult, METHODS, the conventions), image_poses (target_pose,
 target_poses, tag_points), rigid (pose checks, pose_error); this package re-exports their public names.
 """
 
@@ -27,7 +27,7 @@ from .hand_eye import (
     calibrate_hand_eye,
 )
 from .rigid import pose_error
-from .target_poses import tag_points, target_pose, target_poses
+from .image_poses import tag_points, target_pose, target_poses
 
 __all__ = [
     "DEFAULT_METHOD",

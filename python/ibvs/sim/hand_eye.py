@@ -28,7 +28,7 @@ from .._core import CameraModel
 from .._core import sim as _sim
 from ..calibration.hand_eye import DEFAULT_METHOD, MOUNTS, calibrate_hand_eye
 from ..calibration.rigid import as_pose_stack, invert, pose_error
-from ..calibration.target_poses import target_poses as _target_poses
+from ..calibration.image_poses import target_poses as _target_poses
 from .ik import solve_ik
 from .poses import pose
 
@@ -209,7 +209,8 @@ def collect_hand_eye(robot, camera, target, stations=12, noise_px: float = 0.0, 
         raise TypeError(f"camera must be an ibvs.CameraModel, got {type(camera).__name__}")
     if not isinstance(target, _sim.Target):
         raise TypeError(f"target must be an ibvs.sim.Target, got {type(target).__name__}")
-    if not target.planar or len(target) < 4:
+    points = np.asarray(target.points, dtype=float)
+    if len(points) < 4 or np.abs(points[:, 2]).max() > 1e-9:
         raise ValueError("target must have at least 4 points, all in its z = 0 plane (a planar target)")
     if mount not in MOUNTS:
         raise ValueError(f"mount must be one of {MOUNTS}, got {mount!r}")
@@ -218,7 +219,6 @@ def collect_hand_eye(robot, camera, target, stations=12, noise_px: float = 0.0, 
         raise TypeError(f"seed must be a non-negative int, got {seed!r}")
     max_tilt = _real(max_tilt, "max_tilt", 0.0, math.radians(80.0))
     max_roll = _real(max_roll, "max_roll", 0.0, math.pi)
-    points = np.asarray(target.points, dtype=float)
     Z = np.asarray(target.pose, dtype=float)  # bMo (eye in hand) or eMo (eye to hand)
     if mount == "eye_in_hand":
         if camera_pose is not None:
