@@ -52,8 +52,8 @@ def is_rigid_stack(a) -> bool:
         return False
     for T in a:
         R = T[:3, :3]
-        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) <= 0 or np.abs(T[3] - [0, 0, 0, 1]).max() > 1e-9 \
-                or np.abs(T[:3, 3]).max() > 1e6:
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) <= 0 or \
+                np.abs(T[3] - [0, 0, 0, 1]).max() > 1e-9 or np.abs(T[:3, 3]).max() > 1e6:
             return False
     return True
 

@@ -61,8 +61,17 @@ import numpy as np
 
 from .rigid import as_pose_stack, invert, mean_pose, rotation_angle
 
-__all__ = ["HAND_EYE_METHODS", "METHODS", "MOUNTS", "ROBOT_WORLD_METHODS", "HandEyeResult", "calibrate_hand_eye",
-           "DEFAULT_METHOD", "MIN_ROTATION", "MAX_ROTATION_MISMATCH"]
+__all__ = [
+    "DEFAULT_METHOD",
+    "HAND_EYE_METHODS",
+    "MAX_ROTATION_MISMATCH",
+    "METHODS",
+    "MIN_ROTATION",
+    "MOUNTS",
+    "ROBOT_WORLD_METHODS",
+    "HandEyeResult",
+    "calibrate_hand_eye",
+]
 
 #: The mounts: the camera on the end effector, or fixed in the cell watching a target on the end effector.
 MOUNTS = ("eye_in_hand", "eye_to_hand")

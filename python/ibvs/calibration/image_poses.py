@@ -68,7 +68,8 @@ def _pose(camera: CameraModel, px: np.ndarray, estimator: PlanarPose, name: str)
         raise ValueError(f"{name}: {e}") from None
     spread = np.linalg.svd(px - px.mean(0), compute_uv=False)  # in pixels: points seen on a line have no pose
     pose, depth, degenerate = estimator.estimate(uv)
-    if not spread[1] > 1e-3 * spread[0] or degenerate or not np.isfinite(pose).all() or not (np.asarray(depth) > 0).all():
+    if not spread[1] > 1e-3 * spread[0] or degenerate or not np.isfinite(pose).all() or \
+            not (np.asarray(depth) > 0).all():
         raise ValueError(f"{name}: no pose of the planar target fits these pixels (collinear points, the target seen "
                          "edge-on or from behind)")
     return np.asarray(pose, dtype=float)

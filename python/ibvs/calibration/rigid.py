@@ -10,8 +10,15 @@ import math
 
 import numpy as np
 
-__all__ = ["MAX_TRANSLATION", "ORTHONORMAL_TOLERANCE", "as_pose_stack", "invert", "pose_error", "rotation_angle",
-           "mean_pose"]
+__all__ = [
+    "MAX_TRANSLATION",
+    "ORTHONORMAL_TOLERANCE",
+    "as_pose_stack",
+    "invert",
+    "mean_pose",
+    "pose_error",
+    "rotation_angle",
+]
 
 #: Largest translation (m) of a pose the calibration accepts (as ibvs.sim.solve_ik).
 MAX_TRANSLATION = 1e6
@@ -54,7 +61,7 @@ def as_pose_stack(poses, name: str, min_count: int = 0) -> np.ndarray:
 
 
 def invert(T: np.ndarray) -> np.ndarray:
-    """The inverse of a rigid transform (or of each of a stack (..., 4, 4)): b <- a from a <- b, exactly (R^T, -R^T t)."""
+    """The inverse of a rigid transform (or of each of a stack (..., 4, 4)): b <- a from a <- b, as (R^T, -R^T t)."""
     T = np.asarray(T, dtype=float)
     out = np.zeros_like(T)
     Rt = np.swapaxes(T[..., :3, :3], -1, -2)

@@ -289,7 +289,8 @@ def _sensor(vision, camera, points, noise_px):
             raise ValueError(f"vision must be None, 'tag', 'dots' or an ibvs.vision.ImageSensor, got {vision!r}")
         return _vision.ImageSensor.for_target(camera, _sim.Target(points), vision)
     if not isinstance(vision, _vision.ImageSensor):
-        raise TypeError(f"vision must be None, 'tag', 'dots' or an ibvs.vision.ImageSensor, got {type(vision).__name__}")
+        raise TypeError(f"vision must be None, 'tag', 'dots' or an ibvs.vision.ImageSensor, got "
+                        f"{type(vision).__name__}")
     return vision
 
 

@@ -26,8 +26,17 @@ from .. import sim
 from ..calibration.hand_eye import METHODS, MOUNTS
 from .schemes import SCHEMES, TITLES, make
 
-__all__ = ["ROTATIONS_DEG", "TRANSLATIONS_CM", "accuracy", "format_accuracy", "mount_errors", "perturbed_mount",
-           "summarise", "format_mount_errors", "figure"]
+__all__ = [
+    "ROTATIONS_DEG",
+    "TRANSLATIONS_CM",
+    "accuracy",
+    "figure",
+    "format_accuracy",
+    "format_mount_errors",
+    "mount_errors",
+    "perturbed_mount",
+    "summarise",
+]
 
 #: The eMc rotation errors (degrees) and translation errors (cm) of the sweep: a 5 x 5 grid.
 ROTATIONS_DEG = (0.0, 2.5, 5.0, 7.5, 10.0)
@@ -170,7 +179,8 @@ def summarise(rows: Sequence[dict]) -> list[dict]:
     """Per (scheme, rotation_deg, translation_cm): episodes, converged (share in [0, 1]), the median time to converge
     (s) and the median slowdown: time to converge over the same start's time with the exact eMc (episodes where
     both converged), and the outcomes of the others."""
-    exact = {(r["scheme"], r["start"]): r["time_s"] for r in rows if r["rotation_deg"] == 0 and r["translation_cm"] == 0}
+    exact = {(r["scheme"], r["start"]): r["time_s"] for r in rows
+             if r["rotation_deg"] == 0 and r["translation_cm"] == 0}
     cells: dict = {}
     for r in rows:
         cells.setdefault((r["scheme"], r["rotation_deg"], r["translation_cm"]), []).append(r)
