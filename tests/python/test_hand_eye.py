@@ -201,7 +201,7 @@ def test_opencv_without_the_solvers_is_named(monkeypatch):
 
     monkeypatch.setitem(sys.modules, "cv2", NoHandEye())
     bMe = robot_poses()
-    with pytest.raises(ImportError, match="calibrateHandEye.*opencv-python-headless>=4.7,!=5.0.0.93"):
+    with pytest.raises(ImportError, match="calibrateHandEye.*opencv-contrib-python-headless>=4.7,!=5.0.0.93"):
         calibrate_hand_eye(bMe, target_poses_of(bMe))
 
 

@@ -102,7 +102,7 @@ def _opencv():
     if not hasattr(cv2, "calibrateHandEye"):
         raise ImportError(f"OpenCV {cv2.__version__} has no cv2.calibrateHandEye in its Python bindings (the 5.0.0 "
                           "wheels lack it and cv2.calibrateRobotWorldHandEye: opencv/opencv issue 29565): install "
-                          "opencv-python-headless>=4.7,!=5.0.0.93, e.g. 4.14 (the ibvs vision extra does)")
+                          "opencv-contrib-python-headless>=4.7,!=5.0.0.93, e.g. 4.14 (the ibvs vision extra does)")
     return cv2
 
 
