@@ -127,7 +127,7 @@ std::string number(double x) { return py::str(py::float_(x)); }
 // Python's Servo.update: numpy arguments, validate() (raises), then the real-time update()
 // into an output buffer no earlier result holds (py_servo.hpp: returned without a copy).
 std::shared_ptr<ServoOutput> PyServo::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj,
-                                             py::handle zd_obj) {
+                                             py::handle zd_obj, py::handle m_obj, py::handle md_obj) {
   const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
   const auto uv = points(uv_a, "uv");
   const auto uvd = points(uvd_a, "uv_desired");
@@ -141,9 +141,17 @@ std::shared_ptr<ServoOutput> PyServo::update(py::handle uv_obj, py::handle depth
   } else {
     depths(zd_obj, "depth_desired", n, zd);
   }
-  servo.validate(uv, z, uvd, zd);
+  if (servo.task().points_only()) {  // the point laws, exactly as before
+    servo.validate(uv, z, uvd, zd);
+    std::shared_ptr<ServoOutput> out = outputs.next();
+    servo.update(uv, z, uvd, zd, *out);
+    return out;
+  }
+  py_task::measurements(servo.task(), m_obj, "measurements", m);
+  py_task::measurements(servo.task(), md_obj, "measurements_desired", md);
+  servo.validate(uv, z, uvd, zd, m, md);
   std::shared_ptr<ServoOutput> out = outputs.next();
-  servo.update(uv, z, uvd, zd, *out);
+  servo.update(uv, z, uvd, zd, m, md, *out);
   return out;
 }
 
@@ -375,7 +383,9 @@ referenced; later updates never change them (they write into buffers no result h
                ", error_norm=" + number(o.error_norm) + ", sigma_min=" + number(o.sigma_min()) + ")";
       });
 
-  py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
+  py::implicitly_convertible<Layout, Task>();  // a Layout is a Task of points (bind_task.cpp)
+
+  py::class_<PyServo>(m, "Servo", R"(The IBVS control law v = -gain * J+ (f (-) f*) for a Layout or a Task.
 
 Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
       max_linear_speed=inf, max_angular_speed=inf, camera=None, angle_wrap="consistent",
@@ -395,7 +405,7 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
             rotation about their circular mean (see feature_error), the mean kept on the
             previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
             forgets it); "per_point": eq. (13) point by point, no memory)")
-      .def(py::init([](const Layout& layout, py::handle gain, py::handle damping, const std::string& jac,
+      .def(py::init([](const Task& layout, py::handle gain, py::handle damping, const std::string& jac,
                        py::handle polar_min_radius, py::handle diagnostics, py::handle max_linear_speed,
                        py::handle max_angular_speed, py::handle camera, py::handle angle_wrap,
                        py::handle exact_diagnostics) {
@@ -447,13 +457,16 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
 Servo(Layout.polar(n_points), gain, polar_min_radius=switch_radius, ...); ServoResult.polar_fallbacks
 counts the points computed as Cartesian.)")
       .def("update", &PyServo::update, py::arg("uv"), py::arg("depth"), py::arg("uv_desired"),
-           py::arg("depth_desired") = py::none(),
+           py::arg("depth_desired") = py::none(), py::arg("measurements") = py::none(),
+           py::arg("measurements_desired") = py::none(),
            R"(One control step.
 
 uv, uv_desired (N, 2): current and desired points, normalised coordinates, |u|, |v| <= 10
 (larger values look like pixels: ibvs.CameraModel.normalize converts them).
 depth, depth_desired: metres, in [1e-6, 1e6], scalar or (N,); depth_desired is needed for
 jacobian="desired" or "mean" (and must hold N depths whenever given).
+measurements, measurements_desired: a Task's feature blocks (None for points only): one array per
+block (its kind's measurement) or all of them concatenated (Task.measurement_size values).
 Returns a ServoResult (a snapshot: see its docstring). Bad input raises ValueError/TypeError.)")
       .def("update_pixels", &PyServo::update_pixels, py::arg("pixels"), py::arg("depth"), py::arg("pixels_desired"),
            py::arg("depth_desired") = py::none(),
@@ -466,6 +479,7 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
           "camera", [](const PyServo& s) -> py::object { return s.servo.camera() ? py::cast(*s.servo.camera()) : py::none(); },
           "The CameraModel used by update_pixels (None if not given).")
       .def_property_readonly("layout", [](const PyServo& s) { return s.servo.layout(); })
+      .def_property_readonly("task", [](const PyServo& s) { return s.servo.task(); })
       .def_property(
           "gain", [](const PyServo& s) { return gain_of(s.servo.options()); },
           [](PyServo& s, py::handle g) {
@@ -511,7 +525,9 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
       .def_property_readonly("polar_min_radius", [](const PyServo& s) { return s.servo.options().polar_min_radius; })
       .def("__repr__", [](const PyServo& s) {
         const auto& o = s.servo.options();
-        return "Servo(" + layout_repr(s.servo.layout()) + ", gain=" + std::string(py::repr(gain_of(o))) +
+        const std::string what = s.servo.task().points_only() ? layout_repr(s.servo.layout())
+                                                               : "Task(" + s.servo.task().describe() + ")";
+        return "Servo(" + what + ", gain=" + std::string(py::repr(gain_of(o))) +
                ", damping=" + float_repr(o.damping) + ", jacobian='" + interaction_name(o.jacobian) +
                "', angle_wrap='" + angle_wrap_name(o.angle_wrap) + "')";
       });

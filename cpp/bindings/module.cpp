@@ -11,10 +11,12 @@ void bind_estimators(py::module_& m);  // bind_estimators.cpp
 void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
+void bind_task(py::module_& m);         // bind_task.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
   m.attr("__version__") = IBVS_VERSION;
+  bind_task(m);  // first: Servo(task) names ibvs.Task in its signature
   bind_core(m);
   bind_camera(m);
   bind_estimators(m);

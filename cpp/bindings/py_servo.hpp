@@ -25,32 +25,34 @@ namespace py = pybind11;
 /// (results kept in a list) is left to its holders and replaced by a new one.
 class OutputPool {
  public:
-  explicit OutputPool(const Layout& layout) : layout_(layout) {
-    for (auto& p : slots_) p = std::make_shared<ServoOutput>(layout_);
+  explicit OutputPool(const Task& task) : task_(task) {
+    for (auto& p : slots_) p = std::make_shared<ServoOutput>(task_);
   }
   /// A buffer only the pool holds.
   std::shared_ptr<ServoOutput> next() {
     for (auto& p : slots_)
       if (p.use_count() == 1) return p;
     auto& p = slots_[turn_++ % slots_.size()];
-    p = std::make_shared<ServoOutput>(layout_);
+    p = std::make_shared<ServoOutput>(task_);
     return p;
   }
 
  private:
-  Layout layout_;
+  Task task_;
   std::array<std::shared_ptr<ServoOutput>, 3> slots_;
   std::size_t turn_ = 0;
 };
 
 struct PyServo {
-  PyServo(Layout layout, ServoOptions o) : servo(std::move(layout), o), outputs(servo.layout()) {}
+  PyServo(Task task, ServoOptions o) : servo(std::move(task), o), outputs(servo.task()) {}
   Servo servo;
   OutputPool outputs;
-  Eigen::VectorXd z, zd;
+  Eigen::VectorXd z, zd, m, md;
 
-  /// validate() then update() on numpy arguments (bind_core.cpp).
-  std::shared_ptr<ServoOutput> update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj);
+  /// validate() then update() on numpy arguments (bind_core.cpp); m_obj, md_obj: the feature
+  /// blocks' measurements (bind_task.cpp: None, a flat array or one array per block).
+  std::shared_ptr<ServoOutput> update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj,
+                                      py::handle m_obj = py::none(), py::handle md_obj = py::none());
   /// validate_pixels() then update_pixels() (bind_camera.cpp).
   std::shared_ptr<ServoOutput> update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj,
                                              py::handle zd_obj);
@@ -68,6 +70,15 @@ struct PyPartitioned {
   std::shared_ptr<ServoOutput> update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj,
                                              py::handle zd_obj);
 };
+
+}  // namespace ibvs::py_servo
+
+namespace ibvs::py_task {
+/// The measurements of a task's feature blocks from Python (bind_task.cpp).
+void measurements(const Task& task, pybind11::handle obj, const char* name, Eigen::VectorXd& out);
+}  // namespace ibvs::py_task
+
+namespace ibvs::py_servo {
 
 /// `camera` in Python: None or an ibvs.CameraModel (TypeError naming camera otherwise).
 void set_camera(Servo& s, py::handle camera);

@@ -107,6 +107,7 @@ Layout Layout::cartesian(int n) { return uniform(n, {Representation::cartesian},
 Layout Layout::polar(int n) { return uniform(n, {Representation::polar}, "polar"); }
 Layout Layout::stacked(int n) { return uniform(n, {Representation::cartesian, Representation::polar}, "stacked"); }
 Layout Layout::cylindrical(int n) { return uniform(n, {Representation::cylindrical}, "cylindrical"); }
+Layout Layout::none() { return Layout(); }
 
 bool Layout::operator==(const Layout& o) const noexcept {
   if (n_points_ != o.n_points_ || blocks_.size() != o.blocks_.size()) return false;
@@ -117,6 +118,7 @@ bool Layout::operator==(const Layout& o) const noexcept {
 }
 
 std::string Layout::describe() const {
+  if (blocks_.empty()) return "none";
   const auto n = static_cast<std::size_t>(n_points_);
   for (const Kind& kind : kinds) {
     bool same = blocks_.size() == n * kind.per;

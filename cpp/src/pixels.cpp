@@ -65,14 +65,14 @@ Status pixel_step(Law& law, detail::PixelFrontEnd& front, const Eigen::Ref<const
 
 void Servo::set_camera(const CameraModel& camera) {
   camera.validate();
-  pixels_.set(camera, layout_.n_points());
+  pixels_.set(camera, task_.n_points());
 }
 
 void Servo::validate_pixels(const Eigen::Ref<const Points>& pixels, const Eigen::Ref<const Eigen::VectorXd>& depth,
                             const Eigen::Ref<const Points>& pixels_desired,
                             const Eigen::Ref<const Eigen::VectorXd>& depth_desired) const {
   require_camera(camera());
-  const int n = layout_.n_points();
+  const int n = task_.n_points();
   validate(normalized(*camera(), pixels, "pixels", n), depth, normalized(*camera(), pixels_desired, "pixels_desired", n),
            depth_desired);
 }

@@ -53,7 +53,7 @@ Robust::Robust(Robust&&) noexcept = default;
 Robust& Robust::operator=(Robust&&) noexcept = default;
 
 void Robust::solve(const Eigen::Ref<const MatrixX6>& J, const Eigen::Ref<const Eigen::VectorXd>& e, Eigen::Index m,
-                   double lambda, Twist& x, double& smin, double& smax) noexcept {
+                   double lambda, Twist& x, double& smin, double& smax, int columns) noexcept {
   Work& w = *work_;
   std::visit(
       [&](auto& q) noexcept {
@@ -66,14 +66,14 @@ void Robust::solve(const Eigen::Ref<const MatrixX6>& J, const Eigen::Ref<const E
         x.noalias() = w.svd.matrixV() * y;
       },
       w.qr);
-  smin = w.svd.singularValues()(5);
+  smin = w.svd.singularValues()(columns - 1);
   smax = w.svd.singularValues()(0);
 }
 
-void Robust::singular_values(const Eigen::Ref<const MatrixX6>& J, double& smin, double& smax) noexcept {
+void Robust::singular_values(const Eigen::Ref<const MatrixX6>& J, double& smin, double& smax, int columns) noexcept {
   Work& w = *work_;
   std::visit([&](auto& q) noexcept { w.svd_values.compute(q.r_factor(J)); }, w.qr);
-  smin = w.svd_values.singularValues()(5);
+  smin = w.svd_values.singularValues()(columns - 1);
   smax = w.svd_values.singularValues()(0);
 }
 

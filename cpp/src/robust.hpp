@@ -27,11 +27,13 @@ class Robust {
 
   /// x = J+ e with the filter factors pinv_factor(s, lambda, rank_tolerance(m, s_max)),
   /// and J's extreme singular values. J has at least 6 rows (rows past m zero).
+  /// columns: how many of J's columns are in use (the others are zero: a Task's
+  /// degrees of freedom left out); smin is the smallest of that many singular values.
   void solve(const Eigen::Ref<const MatrixX6>& J, const Eigen::Ref<const Eigen::VectorXd>& e, Eigen::Index m,
-             double lambda, Twist& x, double& smin, double& smax) noexcept;
+             double lambda, Twist& x, double& smin, double& smax, int columns) noexcept;
 
-  /// J's extreme singular values (QR of J, then the singular values of R only).
-  void singular_values(const Eigen::Ref<const MatrixX6>& J, double& smin, double& smax) noexcept;
+  /// J's extreme singular values (QR of J, then the singular values of R only), of `columns` in use.
+  void singular_values(const Eigen::Ref<const MatrixX6>& J, double& smin, double& smax, int columns) noexcept;
 
  private:
   struct Work;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <algorithm>
 #include <variant>
 
 namespace ibvs {
@@ -130,12 +131,54 @@ struct Work {
     return fallbacks;
   }
 
-  // x = J+ e by the route of solve.hpp, and what the options ask about J's singular values.
-  detail::Route solve(const ServoOptions& o, Eigen::Index m, Twist& x, detail::Spectrum& spectrum) noexcept {
-    const detail::Diagnostics d = !o.diagnostics         ? detail::Diagnostics::off
-                                  : o.exact_diagnostics ? detail::Diagnostics::exact
-                                                        : detail::Diagnostics::lazy;
-    return solver.solve(J, e, m, o.damping, d, x, spectrum);
+  // Rows after the points: each feature block's error and interaction matrix, from the current
+  // measurement aligned to the goal's (a copy in `aligned`); `spare` holds the goal's rows for
+  // InteractionMatrix::mean. Then the task's weights and degrees of freedom.
+  void assemble_features(const Task& task, InteractionMatrix which, const double* m, const double* md,
+                         double* aligned, MatrixX6& spare) noexcept {
+    for (int k = 0; k < task.n_features(); ++k) {
+      const Feature& f = task.feature(k);
+      const int row = task.row(k), off = task.offset(k), r = f.rows();
+      double* mc = aligned + off;
+      std::copy(m + off, m + off + f.size(), mc);
+      f.align(mc, md + off);
+      f.error(mc, md + off, e.data() + row);
+      auto rows = J.middleRows(row, r);
+      switch (which) {
+        case InteractionMatrix::current: f.interaction(mc, rows); break;
+        case InteractionMatrix::desired: f.interaction(md + off, rows); break;
+        case InteractionMatrix::mean:
+          f.interaction(mc, rows);
+          f.interaction(md + off, spare);
+          rows = 0.5 * (rows + spare.topRows(r));
+          break;
+      }
+    }
+  }
+  void weigh(const Task& task) noexcept {
+    const std::vector<double>& pw = task.point_weights();
+    for (std::size_t b = 0; b < pw.size(); ++b) {
+      const auto row = static_cast<Eigen::Index>(2 * b);
+      J.template middleRows<2>(row) *= pw[b];
+      e.template segment<2>(row) *= pw[b];
+    }
+    for (int k = 0; k < task.n_features(); ++k)
+      if (task.weight(k) != 1.0) {
+        J.middleRows(task.row(k), task.feature(k).rows()) *= task.weight(k);
+        e.segment(task.row(k), task.feature(k).rows()) *= task.weight(k);
+      }
+    for (int i = 0; i < 6; ++i)
+      if (!task.dof()[static_cast<std::size_t>(i)]) J.col(i).setZero();
+  }
+
+  // x = J+ e by the route of solve.hpp, and what the options ask about J's singular values
+  // (with degrees of freedom left out: computed now, of the kept columns).
+  detail::Route solve(const ServoOptions& o, Eigen::Index m, Twist& x, detail::Spectrum& spectrum,
+                      const Dof* dof = nullptr) noexcept {
+    const detail::Diagnostics d = !o.diagnostics                 ? detail::Diagnostics::off
+                                  : o.exact_diagnostics || dof ? detail::Diagnostics::exact
+                                                               : detail::Diagnostics::lazy;
+    return solver.solve(J, e, m, o.damping, d, x, spectrum, dof);
   }
 };
 
@@ -147,26 +190,36 @@ struct Servo::Kernel {
                Work<Eigen::Dynamic, Eigen::Dynamic>>
       work;
 
-  explicit Kernel(int rows) {
-    if (rows == 8)
+  Eigen::VectorXd aligned;  // the current measurements, aligned to the goal's (feature blocks)
+  MatrixX6 spare;           // a feature block's rows at the goal (InteractionMatrix::mean)
+
+  explicit Kernel(const Task& task) {
+    const int rows = task.rows();
+    if (rows == 8 && task.points_only())  // the fixed-size kernels serve the point layouts
       work.emplace<Work<8>>(8);
-    else if (rows == 16)
+    else if (rows == 16 && task.points_only())
       work.emplace<Work<16>>(16);
     else if (rows <= max_realtime_rows)
       work.emplace<Work<Eigen::Dynamic, max_realtime_rows>>(rows);
     else
       work.emplace<Work<Eigen::Dynamic, Eigen::Dynamic>>(rows);
+    int largest = 0;
+    for (int k = 0; k < task.n_features(); ++k) largest = std::max(largest, task.feature(k).rows());
+    aligned = Eigen::VectorXd::Zero(task.measurement_size());
+    spare = MatrixX6::Zero(largest, 6);
   }
 };
 
-ServoInput::ServoInput(const Layout& layout)
-    : uv(Points::Zero(2, layout.n_points())),
-      depth(Eigen::VectorXd::Ones(layout.n_points())),
-      uv_desired(Points::Zero(2, layout.n_points())),
-      depth_desired(Eigen::VectorXd::Ones(layout.n_points())) {}
+ServoInput::ServoInput(const Task& task)
+    : uv(Points::Zero(2, task.n_points())),
+      depth(Eigen::VectorXd::Ones(task.n_points())),
+      uv_desired(Points::Zero(2, task.n_points())),
+      depth_desired(Eigen::VectorXd::Ones(task.n_points())),
+      measurements(Eigen::VectorXd::Zero(task.measurement_size())),
+      measurements_desired(Eigen::VectorXd::Zero(task.measurement_size())) {}
 
-ServoOutput::ServoOutput(const Layout& layout)
-    : error(Eigen::VectorXd::Zero(layout.rows())), jacobian(MatrixX6::Zero(layout.rows(), 6)) {}
+ServoOutput::ServoOutput(const Task& task)
+    : error(Eigen::VectorXd::Zero(task.rows())), jacobian(MatrixX6::Zero(task.rows(), 6)) {}
 
 // Special members out of line: the buffers are allocated and freed by the library's code only.
 ServoInput::ServoInput(const ServoInput&) = default;
@@ -221,10 +274,11 @@ double ServoOutput::condition() const noexcept {
   return sigma_min_ > 0.0 ? sigma_max_ / sigma_min_ : std::numeric_limits<double>::infinity();
 }
 
-Servo::Servo(Layout layout, ServoOptions options)
-    : layout_(std::move(layout)), wrap_centre_(std::numeric_limits<double>::quiet_NaN()) {
+Servo::Servo(Task task, ServoOptions options)
+    : task_(std::move(task)), wrap_centre_(std::numeric_limits<double>::quiet_NaN()) {
+  if (task_.rows() == 0) throw std::invalid_argument("ibvs: task: no points and no feature blocks (nothing to servo)");
   set_options(options);
-  kernel_ = std::make_unique<Kernel>(layout_.rows());
+  kernel_ = std::make_unique<Kernel>(task_);
 }
 
 Servo::~Servo() = default;
@@ -269,7 +323,7 @@ void Servo::reset() noexcept { wrap_centre_ = std::numeric_limits<double>::quiet
 void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                      const Eigen::Ref<const Points>& uv_desired,
                      const Eigen::Ref<const Eigen::VectorXd>& depth_desired) const {
-  const int n = layout_.n_points();
+  const int n = task_.n_points();
   detail::check_points(uv, "uv", n);
   detail::check_depth(depth, "depth", n);
   detail::check_points(uv_desired, "uv_desired", n);
@@ -278,6 +332,24 @@ void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
   else if (depth_desired.size() != n)
     throw std::invalid_argument("ibvs: depth_desired must hold " + std::to_string(n) + " depths for this layout, got " +
                                 std::to_string(depth_desired.size()));
+}
+
+void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                     const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements_desired) const {
+  validate(uv, depth, uv_desired, depth_desired);
+  const Eigen::Index size = task_.measurement_size();
+  if (measurements.size() != size || measurements_desired.size() != size)
+    throw std::invalid_argument("ibvs: measurements and measurements_desired must hold " + std::to_string(size) +
+                                " values for this task's feature blocks, got " + std::to_string(measurements.size()) +
+                                " and " + std::to_string(measurements_desired.size()));
+  for (int k = 0; k < task_.n_features(); ++k) {
+    const Feature& f = task_.feature(k);
+    const std::string block = "[block " + std::to_string(k) + ", " + f.describe() + "]";
+    f.validate(measurements.data() + task_.offset(k), "measurements" + block);
+    f.validate(measurements_desired.data() + task_.offset(k), "measurements_desired" + block);
+  }
 }
 
 Servo automatic_hybrid(int n_points, ServoOptions options, double switch_radius) {
@@ -289,16 +361,38 @@ Servo automatic_hybrid(int n_points, ServoOptions options, double switch_radius)
 Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                      const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                      ServoOutput& out) noexcept {
+  const Eigen::VectorXd none;  // no measurements: right for a task of points only, refused otherwise
+  return update(uv, depth, uv_desired, depth_desired, none, none, out);
+}
+
+namespace {
+// Every feature block's measurement accepted (Feature::check: what validate() refuses).
+bool valid_measurements(const Task& task, const Eigen::Ref<const Eigen::VectorXd>& m) noexcept {
+  if (m.size() != task.measurement_size()) return false;
+  int entry = 0;
+  for (int k = 0; k < task.n_features(); ++k)
+    if (task.feature(k).check(m.data() + task.offset(k), entry)) return false;
+  return true;
+}
+}  // namespace
+
+Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                     const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, ServoOutput& out) noexcept {
   out.pixel_error = std::numeric_limits<double>::quiet_NaN();  // set by update_pixels() after this
-  const int n = layout_.n_points();
-  const Eigen::Index m = layout_.rows();
+  const Layout& layout = task_.points();
+  const int n = layout.n_points();
+  const Eigen::Index m = task_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;
   // Exactly what validate() refuses (tests/cpp/test_fuzz.cpp checks that the two agree).
   const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
                   out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
                   detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
-                  (!uses_zd || detail::valid_depths(depth_desired));
+                  (!uses_zd || detail::valid_depths(depth_desired)) && valid_measurements(task_, measurements) &&
+                  valid_measurements(task_, measurements_desired);
   if (!ok) return detail::refuse(out);
+  Kernel& kernel = *kernel_;
   return std::visit(
       [&](auto& w) noexcept {
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
@@ -307,13 +401,19 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
         // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
         double centre = std::numeric_limits<double>::quiet_NaN();
         if (options_.angle_wrap == AngleWrap::consistent) {
-          const AngleResultant sum = angle_resultant(layout_, options_.polar_min_radius, uv, uv_desired);
+          const AngleResultant sum = angle_resultant(layout, options_.polar_min_radius, uv, uv_desired);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
-        out.polar_fallbacks = w.assemble(layout_, options_, uv, depth, uv_desired, depth_desired, centre);
+        out.polar_fallbacks = w.assemble(layout, options_, uv, depth, uv_desired, depth_desired, centre);
+        const bool plain = task_.points_only();
+        if (!plain) {
+          w.assemble_features(task_, options_.jacobian, measurements.data(), measurements_desired.data(),
+                              kernel.aligned.data(), kernel.spare);
+          w.weigh(task_);
+        }
         Twist x;
         detail::Spectrum spectrum;
-        w.solve(options_, m, x, spectrum);
+        w.solve(options_, m, x, spectrum, plain || task_.dof() == all_dof ? nullptr : &task_.dof());
         if (spectrum.known) out.set_singular_values(spectrum.smin, spectrum.smax);
         else if (options_.diagnostics) out.set_gram(w.solver.N0);  // computed when read
         else out.clear_singular_values();
@@ -329,7 +429,7 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
         return out.status = spectrum.singular ? Status::singular : Status::ok;
         }
       },
-      kernel_->work);
+      kernel.work);
 }
 
 Status detail::refuse(ServoOutput& out) noexcept {

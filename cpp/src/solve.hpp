@@ -53,6 +53,7 @@
 #include "ibvs/features.hpp"
 #include "ibvs/pinv.hpp"
 #include "robust.hpp"
+#include "ibvs/task.hpp"
 
 #include <Eigen/Core>
 
@@ -227,25 +228,35 @@ struct Solver {
   /// x = J+ e by the route decided above (m = rows in use), and what the
   /// diagnostics ask about J's singular values (see the header comment).
   /// Returns the route taken.
+  ///
+  /// dof (a Task's degrees of freedom; nullptr: all six): J's columns of the
+  /// components left out are zero, and the law is solved on the others: their
+  /// diagonal entries of J^T J are padded with the mean of the kept ones (the
+  /// normal equations stay block-diagonal, so x is exactly 0 there), and the
+  /// singular values reported are those of the kept columns.
   Route solve(const Jac& J, const Vec& e, Eigen::Index m, double lambda, Diagnostics diagnostics, Twist& x,
-              Spectrum& spectrum) noexcept {
+              Spectrum& spectrum, const Dof* dof = nullptr) noexcept {
     spectrum = Spectrum{};
     gram(J);
+    const int kept = dof ? pad(*dof) : 6;
     N = N0;
     if (lambda > 0.0) N.diagonal().array() += lambda * lambda;
     if (normal.factor(N) && normal.bound <= normal_route_limit(lambda)) {
       solve_normal(J, e, lambda * lambda, x);
+      if (dof) clear(*dof, x);
+      if (diagnostics == Diagnostics::off) return Route::normal;  // the full-rank test is only for the diagnostics
       // Undamped: N = J^T J passed the full-rank test, cond(J) <= 1e5: not singular. Damped: test J^T J too.
       const bool full_rank = lambda == 0.0 || (normal0.factor(N0) && normal0.bound <= normal_route_limit(0.0));
       if (diagnostics == Diagnostics::exact || (diagnostics == Diagnostics::lazy && !full_rank)) {
-        exact_singular_values(J, spectrum.smin, spectrum.smax);
+        robust_route.singular_values(J, spectrum.smin, spectrum.smax, kept);
         spectrum.known = true;
         spectrum.singular = spectrum.smin <= singular_tolerance(m) * spectrum.smax;
       }
       return Route::normal;
     }
     double smin, smax;
-    robust_route.solve(J, e, m, lambda, x, smin, smax);
+    robust_route.solve(J, e, m, lambda, x, smin, smax, kept);
+    if (dof) clear(*dof, x);
     if (diagnostics != Diagnostics::off) {
       spectrum.known = true;
       spectrum.smin = smin;
@@ -253,6 +264,26 @@ struct Solver {
       spectrum.singular = spectrum.smin <= singular_tolerance(m) * spectrum.smax;
     }
     return Route::robust;
+  }
+
+  /// N0's diagonal entries of the components left out (zero: J's columns are) set to the mean
+  /// of the kept ones (1 if those are all 0); returns how many are kept.
+  int pad(const Dof& dof) noexcept {
+    int kept = 0;
+    double sum = 0.0;
+    for (int i = 0; i < 6; ++i)
+      if (dof[static_cast<std::size_t>(i)]) {
+        ++kept;
+        sum += N0(i, i);
+      }
+    const double fill = sum > 0.0 ? sum / kept : 1.0;
+    for (int i = 0; i < 6; ++i)
+      if (!dof[static_cast<std::size_t>(i)]) N0(i, i) = fill;
+    return kept;
+  }
+  static void clear(const Dof& dof, Twist& x) noexcept {
+    for (int i = 0; i < 6; ++i)
+      if (!dof[static_cast<std::size_t>(i)]) x(i) = 0.0;
   }
 
   /// The route solve() would take (for the benchmark's counts), without solving.
@@ -289,12 +320,12 @@ struct Solver {
   /// pinv_factor (singular values at or below rank_tolerance(m, .) dropped).
   void robust(const Jac& J, const Vec& e, Eigen::Index m, double lambda, Twist& x) noexcept {
     double smin, smax;
-    robust_route.solve(J, e, m, lambda, x, smin, smax);
+    robust_route.solve(J, e, m, lambda, x, smin, smax, 6);
   }
 
   /// The singular values of J exactly (to rounding): QR of J, then those of R.
   void exact_singular_values(const Jac& J, double& smin, double& smax) noexcept {
-    robust_route.singular_values(J, smin, smax);
+    robust_route.singular_values(J, smin, smax, 6);
   }
 
   /// sigma_min, sigma_max of J from the eigenvalues of N0 = J^T J (symmetric_eigenvalues);

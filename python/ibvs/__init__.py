@@ -7,7 +7,8 @@ Conventions (everywhere the same):
   radians. Pixels (u right, v down) only through CameraModel (normalize / project,
   Servo(..., camera=).update_pixels); poses are 4x4 "a <- b" transforms.
   Robots: base frame b, end effector e, camera c; eMc = end-effector <- camera (4x4);
-  joint_velocities / JointMapping turn the camera twist into joint velocities.
+  joint_velocities / JointMapping turn the camera twist into joint velocities;
+  calibrate_hand_eye estimates eMc (or a fixed camera's bMc) from robot and target poses (ibvs.calibration).
 """
 
 from __future__ import annotations
@@ -19,15 +20,18 @@ from ._core import (
     AdaptiveGain,
     CameraModel,
     DepthEstimator,
+    Feature,
     JointMapping,
     JointMappingResult,
     Layout,
+    LineFeature,
     PartitionedServo,
     PlanarPose,
     Representation,
     Servo,
     ServoResult,
     Status,
+    Task,
     __version__,
     area_scale,
     area_scale_jacobian,
@@ -42,23 +46,28 @@ from ._core import (
     singular_values,
     wrap_angle,
 )
+from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
 
 __all__ = [
     "AdaptiveGain",
     "CameraModel",
     "DepthEstimator",
+    "Feature",
     "JointMapping",
     "JointMappingResult",
     "Layout",
+    "LineFeature",
     "PartitionedServo",
     "PlanarPose",
     "Representation",
     "Servo",
     "ServoResult",
     "Status",
+    "Task",
     "__version__",
     "area_scale",
     "area_scale_jacobian",
+    "calibrate_hand_eye",
     "cmake_dir",
     "damped_pinv",
     "feature_error",

@@ -8,7 +8,7 @@ from pybind11's functions.
 from __future__ import annotations
 
 import os
-from typing import Any, ClassVar, Sequence, Tuple, Union
+from typing import Any, ClassVar, List, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -327,8 +327,80 @@ class ServoResult:
     def pixel_error(self) -> float:
         """update_pixels: largest point-to-goal distance in pixels; NaN after update."""
 
+class Feature:
+    """A block of feature rows of a Task beside its points.
+
+    Each kind documents its measurement: the values a frame gives it (e.g. a line: rho, theta and
+    the plane A, B, C with 1/Z = A x + B y + C), in normalised coordinates and metres. value(),
+    error() and interaction() evaluate it (they check the measurement first: ValueError naming
+    the entry).
+    """
+
+    @property
+    def rows(self) -> int:
+        """Rows of the block (size of its value)."""
+    @property
+    def size(self) -> int:
+        """Values in one measurement."""
+    def value(self, measurement: _ArrayLike) -> _FloatArray:
+        """The block's feature values s (rows,)."""
+    def error(self, measurement: _ArrayLike, measurement_desired: _ArrayLike) -> _FloatArray:
+        """s (-) s*: the measurement aligned to the goal's, angles wrapped (rows,)."""
+    def interaction(self, measurement: _ArrayLike) -> _FloatArray:
+        """The interaction matrix L (rows, 6): ds/dt = L v for the camera twist v."""
+
+class LineFeature(Feature):
+    """An image line (rho, theta).
+
+    The line x cos(theta) + y sin(theta) = rho (normalised coordinates), projection of a 3-D line
+    in the plane 1/Z = A x + B y + C (one through the line, not through the camera centre).
+    Measurement (5): rho, theta, A, B, C; LineFeature.measure(p1, p2, plane) builds it from two
+    image points. Interaction matrix: Espiau, Chaumette & Rives 1992 (ViSP's vpFeatureLine with
+    A = -A'/D', B = -B'/D', C = -C'/D'). The line is also (-rho, theta + pi): the error uses the
+    form nearest the goal's, theta's difference wrapped into (-pi, pi].
+    """
+
+    def __init__(self) -> None: ...
+    @staticmethod
+    def measure(p1: _ArrayLike, p2: _ArrayLike, plane: _ArrayLike) -> _FloatArray:
+        """The measurement (rho >= 0, theta, A, B, C) of the line through two distinct image points."""
+
+class Task:
+    """What a Servo drives to zero: the points of a Layout, then feature blocks.
+
+    Task(layout=None): the image points of `layout` (a Servo of a Task of points only is the Servo
+    of the Layout, bit for bit), then add(feature, weight) appends blocks of other kinds. Each
+    block's rows (of J and of the error) are multiplied by its weight; point_weights gives one
+    weight per block of the Layout. dof: the camera twist components the law may use (ViSP's
+    setCameraDoF): six bools, or names among "Tx", "Ty", "Tz", "wx", "wy", "wz"; the others are 0
+    and the law is solved on the remaining columns of J.
+    """
+
+    point_weights: List[float]
+    """One weight per Layout block ([] = all 1); settable."""
+    dof: List[bool]
+    """The controlled twist components (6 bools); settable (bools or names)."""
+    def __init__(self, layout: Layout | None = None) -> None: ...
+    def add(self, feature: Feature, weight: float = 1.0) -> Task:
+        """Append a copy of a feature block (rows multiplied by weight > 0); returns the task."""
+    @property
+    def layout(self) -> Layout | None:
+        """The task's point Layout, or None."""
+    @property
+    def rows(self) -> int:
+        """Rows of the whole task (points, then feature blocks)."""
+    @property
+    def measurement_size(self) -> int:
+        """Values in one measurement of all feature blocks, concatenated."""
+    @property
+    def features(self) -> List[Feature]:
+        """Copies of the feature blocks, in row order."""
+    @property
+    def weights(self) -> List[float]:
+        """The feature blocks' weights."""
+
 class Servo:
-    """The IBVS control law v = -gain * J+ (f (-) f*) for a Layout.
+    """The IBVS control law v = -gain * J+ (f (-) f*) for a Layout or a Task.
 
     Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diagnostics=True,
           max_linear_speed=inf, max_angular_speed=inf, camera=None, angle_wrap="consistent",
@@ -362,7 +434,7 @@ class Servo:
     """'consistent' or 'per_point' (see the class doc); setting it also forgets the previous frame."""
     def __init__(
         self,
-        layout: Layout,
+        layout: Union[Layout, Task],
         gain: Union[float, AdaptiveGain],
         damping: float = 0.0,
         jacobian: str = "current",
@@ -393,9 +465,16 @@ class Servo:
         counts the points computed as Cartesian.
         """
     def update(
-        self, uv: _ArrayLike, depth: _Depth, uv_desired: _ArrayLike, depth_desired: _Depth | None = None
+        self,
+        uv: _ArrayLike,
+        depth: _Depth,
+        uv_desired: _ArrayLike,
+        depth_desired: _Depth | None = None,
+        measurements: _ArrayLike | Sequence[_ArrayLike] | None = None,
+        measurements_desired: _ArrayLike | Sequence[_ArrayLike] | None = None,
     ) -> ServoResult:
-        """uv, uv_desired (N, 2) or (N, 1, 2) normalised; depth metres."""
+        """uv, uv_desired (N, 2) or (N, 1, 2) normalised; depth metres; measurements of a Task's feature
+        blocks: one array per block or all of them concatenated."""
     def update_pixels(
         self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult:
@@ -407,7 +486,10 @@ class Servo:
         """The CameraModel used by update_pixels (None if not given)."""
     @property
     def layout(self) -> Layout:
-        """The Layout this servo was built for."""
+        """The Layout this servo was built for (a Task's points)."""
+    @property
+    def task(self) -> Task:
+        """The Task this servo was built for (a Layout's is its points only)."""
     @property
     def jacobian_mode(self) -> str:
         """Where the interaction matrix is evaluated: "current", "desired" or "mean"."""

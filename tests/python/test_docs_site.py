@@ -24,13 +24,14 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-MODULES = ["ibvs", "ibvs.sim", "ibvs.sim.cases", "ibvs.vision", "ibvs.viz", "ibvs.study", "ibvs.study.schemes",
-           "ibvs.study.scenario", "ibvs.study.sweep", "ibvs.study.reproduce", "ibvs.ros"]
+MODULES = ["ibvs", "ibvs.calibration", "ibvs.sim", "ibvs.sim.cases", "ibvs.vision", "ibvs.viz", "ibvs.study",
+           "ibvs.study.schemes", "ibvs.study.scenario", "ibvs.study.sweep", "ibvs.study.reproduce",
+           "ibvs.study.hand_eye", "ibvs.ros"]
 # The API pages: which module each documents (::: directives).
-PAGES = {"api/ibvs": ["ibvs"], "api/sim": ["ibvs.sim", "ibvs.sim.cases"], "api/vision": ["ibvs.vision"],
-         "api/viz": ["ibvs.viz"], "api/ros": ["ibvs.ros"],
+PAGES = {"api/ibvs": ["ibvs"], "api/calibration": ["ibvs.calibration"], "api/sim": ["ibvs.sim", "ibvs.sim.cases"],
+         "api/vision": ["ibvs.vision"], "api/viz": ["ibvs.viz"], "api/ros": ["ibvs.ros"],
          "api/study": ["ibvs.study", "ibvs.study.schemes", "ibvs.study.scenario", "ibvs.study.sweep",
-                       "ibvs.study.reproduce"]}
+                       "ibvs.study.reproduce", "ibvs.study.hand_eye"]}
 # Any attempt to reach the network goes to a closed local port and fails.
 PROXIES = ("HTTP_PROXY", "HTTPS_PROXY", "ALL_PROXY", "http_proxy", "https_proxy")
 NO_NETWORK = {**{k: "http://127.0.0.1:9" for k in PROXIES},

@@ -41,6 +41,8 @@ class Layout {
   static Layout polar(int n);      ///< (r_i, theta_i): 2N x 6, IBVS-P
   static Layout stacked(int n);    ///< (u_i, v_i, r_i, theta_i) per point: 4N x 6
   static Layout cylindrical(int n);  ///< (r_i, r_i theta_i) (Iwatsuki & Okiyama): 2N x 6
+  /// No blocks and no points: the point part of a Task of other features only (task.hpp).
+  static Layout none();
 
   int n_points() const noexcept { return n_points_; }
   int rows() const noexcept { return static_cast<int>(2 * blocks_.size()); }
@@ -52,6 +54,7 @@ class Layout {
   bool operator==(const Layout& o) const noexcept;
 
  private:
+  Layout() = default;  // none()
   std::vector<Block> blocks_;
   int n_points_ = 0;
 };

@@ -60,4 +60,7 @@ inline constexpr double max_estimator_noise = 1e6;
 /// damping = 0 (QR/SVD) route may then use the heap.
 inline constexpr int max_realtime_rows = 256;
 
+/// Rows of the feature blocks of one Task (task.hpp), beside its points.
+inline constexpr int max_feature_rows = 100000;
+
 }  // namespace ibvs

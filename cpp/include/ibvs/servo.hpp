@@ -12,6 +12,7 @@
 #include "ibvs/layout.hpp"
 #include "ibvs/pixel_front_end.hpp"
 #include "ibvs/limits.hpp"
+#include "ibvs/task.hpp"
 
 #include <Eigen/Core>
 
@@ -63,12 +64,13 @@ struct ServoOptions {
   AngleWrap angle_wrap = AngleWrap::consistent;
 };
 
-/// Per-frame input, sized once for a layout (N points). The library allocates
-/// its buffers and frees them (special members defined in the library, so a
-/// consumer built with other flags, sanitizers included, never frees them with
-/// another allocator): fill them, do not resize them.
+/// Per-frame input, sized once for a task (N points, its feature blocks'
+/// measurements). The library allocates its buffers and frees them (special
+/// members defined in the library, so a consumer built with other flags,
+/// sanitizers included, never frees them with another allocator): fill them, do
+/// not resize them.
 struct ServoInput {
-  explicit ServoInput(const Layout& layout);
+  explicit ServoInput(const Task& task);
   ServoInput(const ServoInput&);
   ServoInput(ServoInput&&) noexcept;
   ServoInput& operator=(const ServoInput&);
@@ -78,12 +80,16 @@ struct ServoInput {
   Eigen::VectorXd depth;         ///< current depths, metres, N, in [min_depth, max_depth]
   Points uv_desired;             ///< desired points, 2 x N
   Eigen::VectorXd depth_desired; ///< desired depths, N (values used by desired / mean)
+  /// The feature blocks' measurements (Task::measurement_size(), block k from Task::offset(k)),
+  /// current and at the goal; empty for a task of points only.
+  Eigen::VectorXd measurements;
+  Eigen::VectorXd measurements_desired;
 };
 
 /// Per-frame output, sized once for a layout (M rows); buffers owned by the
 /// library as ServoInput's.
 struct ServoOutput {
-  explicit ServoOutput(const Layout& layout);
+  explicit ServoOutput(const Task& task);
   ServoOutput(const ServoOutput&);
   ServoOutput(ServoOutput&&) noexcept;
   ServoOutput& operator=(const ServoOutput&);
@@ -161,12 +167,14 @@ struct ServoOutput {
 /// cylindrical_jacobian); a point at r = 0 borrows the other point's direction.
 class Servo {
  public:
-  explicit Servo(Layout layout, ServoOptions options = {});  // throws std::invalid_argument
+  /// A task: the points of a Layout (a Layout converts to one), feature blocks, weights, DOF.
+  explicit Servo(Task task, ServoOptions options = {});  // throws std::invalid_argument
   ~Servo();
   Servo(Servo&&) noexcept;
   Servo& operator=(Servo&&) noexcept;
 
-  const Layout& layout() const noexcept { return layout_; }
+  const Layout& layout() const noexcept { return task_.points(); }  ///< the task's points
+  const Task& task() const noexcept { return task_; }
   const ServoOptions& options() const noexcept { return options_; }
   /// Replace the options (gain scheduling etc.). Throws on invalid values; never allocates.
   void set_options(const ServoOptions& options);
@@ -179,12 +187,28 @@ class Servo {
                 const Eigen::Ref<const Points>& uv_desired,
                 const Eigen::Ref<const Eigen::VectorXd>& depth_desired) const;
 
-  /// One control step. Real-time safe: noexcept, no heap allocation.
+  /// validate() above, then the feature blocks' measurements (Task::measurement_size() each):
+  /// throws naming the block and entry, e.g. "ibvs: measurements[block 1, line][4]: ...".
+  void validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements_desired) const;
+  void validate(const ServoInput& in) const {
+    validate(in.uv, in.depth, in.uv_desired, in.depth_desired, in.measurements, in.measurements_desired);
+  }
+
+  /// One control step of a task of points only (a task with feature blocks needs their
+  /// measurements: Status::invalid_input here). Real-time safe: noexcept, no heap allocation.
   Status update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                 const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                 ServoOutput& out) noexcept;
+  /// One control step of any task. Real-time safe: noexcept, no heap allocation.
+  Status update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, ServoOutput& out) noexcept;
   Status update(const ServoInput& in, ServoOutput& out) noexcept {
-    return update(in.uv, in.depth, in.uv_desired, in.depth_desired, out);
+    return update(in.uv, in.depth, in.uv_desired, in.depth_desired, in.measurements, in.measurements_desired, out);
   }
 
   /// Pixels in, twist out (cpp/src/pixels.cpp): the camera model that update_pixels() uses.
@@ -205,7 +229,7 @@ class Servo {
 
  private:
   struct Kernel;  // sized workspace: fixed 8 or 16 rows, or dynamic
-  Layout layout_;
+  Task task_;
   ServoOptions options_;
   std::unique_ptr<Kernel> kernel_;
   detail::PixelFrontEnd pixels_;  // camera and normalised points of update_pixels()

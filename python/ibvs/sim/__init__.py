@@ -12,7 +12,8 @@ returns the history as numpy arrays.
     result.animate("run.gif", speed=2)   # camera view and 3D scene (ibvs.viz.animate)
 
 A robot carries the camera: sim.Gantry.afma6(), or any arm from its URDF (sim.UrdfRobot, Pinocchio);
-sim.solve_ik(robot, camera_pose, q0) finds its joints for a camera pose (sim.ik).
+sim.solve_ik(robot, camera_pose, q0) finds its joints for a camera pose (sim.ik). sim.collect_hand_eye moves an
+arm through calibration stations (sim.hand_eye); sim.MiscalibratedRobot drives one with a wrong eMc.
 
 Frames and conventions are those of ibvs (camera x right, y down, z forward;
 twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera;
@@ -23,7 +24,9 @@ from __future__ import annotations
 
 from . import cases
 from .episode import Camera, Gantry, Robot, Sensor, Target, run
+from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
+from .miscalibrated import MiscalibratedRobot
 from .poses import pose, pose_deg, rotation
 from .result import OUTCOMES, History, Metrics, Result, RunStatus
 from .urdf import UrdfRobot, example_robot_urdf
@@ -31,9 +34,12 @@ from .urdf import UrdfRobot, example_robot_urdf
 __all__ = [
     "Camera",
     "Gantry",
+    "HandEyeData",
+    "HandEyeScene",
     "History",
     "IKResult",
     "Metrics",
+    "MiscalibratedRobot",
     "OUTCOMES",
     "Result",
     "Robot",
@@ -42,7 +48,9 @@ __all__ = [
     "Target",
     "UrdfRobot",
     "cases",
+    "collect_hand_eye",
     "example_robot_urdf",
+    "hand_eye_scene",
     "pose",
     "pose_deg",
     "rotation",

@@ -17,7 +17,7 @@ def opencv():
         import cv2
     except ImportError as e:  # pragma: no cover - the test extra installs it
         raise ImportError(
-            "ibvs.vision needs OpenCV (opencv-python-headless): "
+            "ibvs.vision needs OpenCV (opencv-contrib-python-headless): "
             'pip install ".[vision]" from the ibvs repository root'
         ) from e
     return cv2

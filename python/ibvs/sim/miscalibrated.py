@@ -1,0 +1,62 @@
+"""A robot whose controller believes a wrong hand-eye transform: the camera moves with the robot's true eMc while the
+episode's JointMapping turns the servo's twist into joint velocities with another one (the calibration's estimate).
+
+    robot = ibvs.sim.UrdfRobot.example("panda", eMc_true)
+    believed = ibvs.sim.MiscalibratedRobot(robot, eMc_estimate)
+    ibvs.sim.run(servo, camera, target, q_start, q_goal, robot=believed)    # the camera where eMc_true puts it
+
+How (no change to the C++ loop, which has one mount per robot): this robot's mount is the controller's eMc_hat, and
+its kinematics(q) reports the end effector at T_we eMc eMc_hat^-1, so that the camera the loop places at
+kinematics(q) times the mount is the true one (T_we eMc), with the true end-effector Jacobian in the end-effector
+frame. The mapping then computes qdot = (cVe_hat eJe)^+ v, as a controller with eMc_hat does; the camera moves
+with cVe eJe qdot, which is v only when eMc_hat = eMc. camera(q) and the episode's poses are the true camera's;
+jacobian(q) and joint_velocity(q, v) are the controller's (with eMc_hat).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._core import sim as _sim
+from ..calibration.rigid import as_pose_stack, invert
+
+__all__ = ["MiscalibratedRobot"]
+
+
+class MiscalibratedRobot(_sim.Robot):
+    """robot (any ibvs.sim.Robot: a UrdfRobot, the Gantry) driven by a controller that believes its camera mount is
+    controller_mount (4x4, end effector <- camera) while the camera stays where robot.mount puts it. The joint
+    limits, speed limits, damping and singular region are robot's; the Jacobian is passed to the mapping in the
+    end-effector frame. Pickles by its arguments (sweeps' worker processes).
+
+    true_mount: robot.mount (eMc). controller_mount: eMc_hat, the mapping's (also .mount).
+    """
+
+    def __init__(self, robot, controller_mount) -> None:
+        if not isinstance(robot, _sim.Robot):
+            raise TypeError(f"robot must be an ibvs.sim.Robot (a UrdfRobot, a Gantry...), got {type(robot).__name__}")
+        if isinstance(robot, MiscalibratedRobot):
+            robot = robot.robot  # the believed mount replaces the earlier one
+        eMc_hat = as_pose_stack([controller_mount], "controller_mount")[0]
+        super().__init__(robot.q_min, robot.q_max, robot.qdot_max, eMc_hat, "end_effector", robot.damping,
+                         robot.singular_region)
+        self.robot = robot
+        self.true_mount = np.array(robot.mount, dtype=float)
+        self.controller_mount = eMc_hat
+        self._shift = self.true_mount @ invert(eMc_hat)  # e <- e_hat: the reported end effector's place on the true one
+        self._base_frame = robot.frame == "base"
+
+    def kinematics(self, q):
+        """(T_we eMc eMc_hat^-1, the true end-effector Jacobian (6, n) in the end-effector frame) at q (n,)."""
+        T, J = self.robot.kinematics(q)
+        T, J = np.asarray(T, dtype=float), np.asarray(J, dtype=float)
+        if self._base_frame:  # bJe -> eJe: both halves rotated into the end-effector frame
+            Rt = T[:3, :3].T
+            J = np.vstack([Rt @ J[:3], Rt @ J[3:]])
+        return T @ self._shift, J
+
+    def __reduce__(self):
+        return (MiscalibratedRobot, (self.robot, self.controller_mount))
+
+    def __repr__(self) -> str:
+        return f"MiscalibratedRobot({self.robot!r})"
