@@ -82,6 +82,10 @@ def test_servo_spec_round_trip_of_every_option():
                          max_linear_speed=0.3, max_angular_speed=1.5, angle_wrap="per_point"),
               ibvs.Servo.automatic_hybrid(5, 0.7),
               ibvs.PartitionedServo(4, 1.5, damping=0.1, segment=(1, 3), max_linear_speed=0.2)]
+    task = ibvs.Task(ibvs.Layout.polar(4))  # point weights and a subset of the twist (the Task's options)
+    task.point_weights = [1.0, 2.0, 0.5, 1.0]
+    task.dof = ["Tx", "Ty", "Tz", "wz"]
+    servos.append(ibvs.Servo(task, 0.8, damping=0.02))
     uv = np.array([[0.1, 0.2], [-0.1, 0.15], [-0.12, -0.1], [0.1, -0.1], [0.01, 0.02]])
     for s in servos:
         spec = json.loads(json.dumps(ros.servo_spec(s)))
@@ -91,6 +95,10 @@ def test_servo_spec_round_trip_of_every_option():
         a = s.update(uv[:n] * 1.3, 0.7, uv[:n], 0.5).velocity
         b = copy.update(uv[:n] * 1.3, 0.7, uv[:n], 0.5).velocity
         np.testing.assert_array_equal(a, b)
+    assert ros.servo_spec(servos[-1])["dof"] == [True, True, True, False, False, True]
+    lines = ibvs.Task(ibvs.Layout.polar(4)).add(ibvs.LineFeature())
+    with pytest.raises(ValueError, match="servo: a Task with feature blocks other than points is not recorded"):
+        ros.servo_spec(ibvs.Servo(lines, 1.0))
 
 
 def test_directory_bag_and_replacing_an_existing_one(tmp_path):

@@ -42,7 +42,17 @@ def servo_spec(servo) -> Dict[str, Any]:
     g = servo.gain
     gain = ({"at_zero": g.at_zero, "at_infinity": g.at_infinity, "slope_at_zero": g.slope_at_zero}
             if isinstance(g, AdaptiveGain) else _num(g))
-    return {"kind": "servo", "blocks": [[int(p), str(r)] for p, r in servo.layout.blocks], "gain": gain,
+    task = getattr(servo, "task", None)  # a Servo of a Task: its point weights and DOF; other blocks refused
+    extra: Dict[str, Any] = {}
+    if task is not None:
+        if task.features:
+            raise ValueError("servo: a Task with feature blocks other than points is not recorded (replay takes "
+                             "a scheme instead)")
+        if list(task.point_weights):
+            extra["point_weights"] = [float(w) for w in task.point_weights]
+        if not all(task.dof):
+            extra["dof"] = [bool(d) for d in task.dof]
+    return {**extra, "kind": "servo", "blocks": [[int(p), str(r)] for p, r in servo.layout.blocks], "gain": gain,
             "damping": _num(servo.damping), "jacobian": servo.jacobian_mode,
             "polar_min_radius": _num(servo.polar_min_radius), "max_linear_speed": _num(servo.max_linear_speed),
             "max_angular_speed": _num(servo.max_angular_speed), "angle_wrap": servo.angle_wrap}
@@ -57,7 +67,16 @@ def servo_from_spec(spec: Dict[str, Any]):
                                     max_angular_speed=_float(spec["max_angular_speed"]))
         g = spec["gain"]
         gain = AdaptiveGain(g["at_zero"], g["at_infinity"], g["slope_at_zero"]) if isinstance(g, dict) else _float(g)
-        return Servo(Layout([(int(p), r) for p, r in spec["blocks"]]), gain, damping=_float(spec["damping"]),
+        layout = Layout([(int(p), r) for p, r in spec["blocks"]])
+        if "point_weights" in spec or "dof" in spec:
+            from .._core import Task
+
+            layout = Task(layout)
+            if "point_weights" in spec:
+                layout.point_weights = [float(w) for w in spec["point_weights"]]
+            if "dof" in spec:
+                layout.dof = [bool(d) for d in spec["dof"]]
+        return Servo(layout, gain, damping=_float(spec["damping"]),
                      jacobian=spec["jacobian"], polar_min_radius=_float(spec["polar_min_radius"]),
                      max_linear_speed=_float(spec["max_linear_speed"]),
                      max_angular_speed=_float(spec["max_angular_speed"]), angle_wrap=spec["angle_wrap"])

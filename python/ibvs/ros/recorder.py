@@ -110,13 +110,21 @@ def _sensor_spec(sensor, resets) -> Optional[Dict[str, Any]]:
     return spec
 
 
+def _spec(servo) -> Optional[Dict[str, Any]]:
+    """The servo's spec, or None for a servo /ibvs/config cannot describe (replay then takes a scheme)."""
+    try:
+        return None if servo is None else cfg.servo_spec(servo)
+    except (TypeError, ValueError):
+        return None
+
+
 def _config(result, servo, options, resets) -> Dict[str, Any]:
     h = result.history
     robot = result.robot
     c: Dict[str, Any] = {
         "ibvs_version": __version__, "topics": TOPICS, "frames": len(h), "fps": result.camera.fps,
         "camera": cfg.camera_spec(result.camera), "servo_text": result.servo,
-        "servo": None if servo is None else cfg.servo_spec(servo),
+        "servo": _spec(servo),
         "target": None if result.target is None else {"points": cfg.array(result.target.points),
                                                        "pose": cfg.array(result.target.pose),
                                                        "planar": bool(result.target.planar)},

@@ -139,7 +139,8 @@ def run(
     record: None, or a path: the episode is also written there as a ROS 2 bag (a path ending in .mcap: one
         MCAP file; else a rosbag2 directory), after the run and atomically, stamped at the simulated frame
         times; an image sensor then keeps its frames (keep_frames). Needs the ros extra (rosbags).
-        ibvs.ros.record lists the topics; ibvs.ros.replay runs a tracker and the servo over the bag again.
+        ibvs.ros.recorder lists the topics (docs/ros.md); ibvs.ros.replay runs a tracker and the servo
+        over the bag again.
     """
     if robot is not None and not isinstance(robot, Robot):
         raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
