@@ -8,9 +8,6 @@
 # file left alone keeps its time stamp): the commands stay the same from one
 # install to the next, and Ninja recompiles only what the checkout changed.
 function(ibvs_stable_includes target name)
-  if(CMAKE_VERSION VERSION_LESS 3.21)  # file(COPY_FILE ... ONLY_IF_DIFFERENT)
-    return()
-  endif()
   get_target_property(_dirs ${target} INTERFACE_INCLUDE_DIRECTORIES)
   set(_stable "")
   set(_i 0)

@@ -90,7 +90,8 @@ NOT_RUN = {
     ("README.md", 'pip install ".[plot,robots]"'):
         "it builds and installs the package (minutes); .ci/run installs it the same way",
     ("README.md", "pip install --no-build-isolation"):
-        "the development set-up builds everything twice (minutes); .ci/run builds and tests the same way",
+        "the development set-up (two full builds, minutes, and `bash .ci/run`, all of CI) is not run by the tests; "
+        "CI builds and tests the same sources through the README's install and its own CMake build",
     ("docs/sweeps.md", "dask scheduler"):
         "it starts servers, one per terminal: tests/python/test_sweep_cluster.py runs these commands",
     ("docs/ros.md", "ibvs replay my_robot_bag"):
