@@ -317,13 +317,17 @@ Subclass it in Python and define kinematics(q) -> (T_we, J): the world (base) <-
 velocity of the end effector's origin and angular velocity in the end-effector frame, Pinocchio's
 LOCAL; "base": both in the base frame, Pinocchio's LOCAL_WORLD_ALIGNED). ibvs.sim.UrdfRobot is one.
 
-Robot(q_min, q_max, qdot_max, mount, frame="end_effector", damping=0.0, singular_region=0.0)
+Robot(q_min, q_max, qdot_max, mount, frame="end_effector", damping=0.0, singular_region=0.0,
+      mounting="eye_in_hand")
   q_min, q_max (n,)  joint position limits (m or rad); qdot_max (n,) speed limits > 0 (inf = none)
-  mount (4, 4)       end-effector <- camera (eMc)
+  mount (4, 4)       end-effector <- camera (eMc); with mounting="eye_to_hand" the fixed camera's
+                     base <- camera pose bMc, the target riding on the end effector: the episode then
+                     runs in the end effector's frame (Target.pose = end effector <- target, camera(q)
+                     = bMe(q)^-1 bMc, a goal pose is that; see docs/arms.md, Eye-to-hand)
   damping, singular_region  of the JointMapping that turns the camera twist into joint velocities
 The episode loop calls kinematics() once per frame and holds the GIL for such a robot.)")
       .def(py::init([](py::handle q_min, py::handle q_max, py::handle qdot_max, py::handle mount, py::handle frame,
-                       py::handle damping, py::handle singular_region) {
+                       py::handle damping, py::handle singular_region, py::handle mounting) {
              auto r = std::make_unique<PyRobot>();
              r->q_min = limits_arg(q_min, "q_min");
              const int n = r->dof();
@@ -333,18 +337,21 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
              r->mapping.frame = frame_arg(frame);
              r->mapping.damping = real(damping, "damping");
              r->mapping.singular_region = real(singular_region, "singular_region");
+             r->mapping.mounting = mounting_arg(mounting);
              r->validate();
              return r;
            }),
            py::arg("q_min"), py::arg("q_max"), py::arg("qdot_max"), py::arg("mount"), py::arg("frame") = "end_effector",
-           py::arg("damping") = 0.0, py::arg("singular_region") = 0.0)
+           py::arg("damping") = 0.0, py::arg("singular_region") = 0.0, py::arg("mounting") = "eye_in_hand")
       .def_property_readonly("dof", &Robot::dof, "Number of joints n.")
       .def_property_readonly("q_min", [](const Robot& r) { return Eigen::VectorXd(r.q_min); }, "(n,) lower joint limits.")
       .def_property_readonly("q_max", [](const Robot& r) { return Eigen::VectorXd(r.q_max); }, "(n,) upper joint limits.")
       .def_property_readonly("qdot_max", [](const Robot& r) { return Eigen::VectorXd(r.qdot_max); },
                              "(n,) joint speed limits.")
       .def_property_readonly("mount", [](const Robot& r) { return Eigen::Matrix4d(r.mount); },
-                             "end-effector <- camera (eMc), 4x4.")
+                             "end-effector <- camera (eMc), 4x4; eye_to_hand: base <- camera (bMc).")
+      .def_property_readonly("mounting", [](const Robot& r) { return to_string(r.mapping.mounting); },
+                             "'eye_in_hand' (camera on the end effector) or 'eye_to_hand' (camera fixed, target on it).")
       .def_property_readonly("frame", [](const Robot& r) { return to_string(r.mapping.frame); },
                              "Frame of the Jacobian kinematics() returns: 'end_effector' or 'base'.")
       .def_property_readonly("damping", [](const Robot& r) { return r.mapping.damping; })
@@ -358,7 +365,7 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
             const JointVector qv = q_arg(q, r.dof());
             return calling_kinematics(r, [&] { return Eigen::Matrix4d(r.camera(qv)); });
           },
-          py::arg("q"), "world <- camera, 4x4.")
+          py::arg("q"), "world <- camera, 4x4 (eye_to_hand: end effector <- camera, bMe(q)^-1 bMc).")
       .def(
           "jacobian",
           [](Robot& r, py::handle q) {
@@ -375,6 +382,72 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
           },
           py::arg("q"), py::arg("twist"),
           "Joint velocities (n,) for the camera twist at q, by the robot's JointMapping (before the speed limits).")
+      .def(
+          "set_secondary_task",
+          [](Robot& r, py::handle projector, bool avoid, py::handle rho, py::handle rho1, py::handle lambda_tune,
+             py::handle qddot_max, py::handle switch_low, py::handle switch_high) {
+            SecondaryTaskOptions o;
+            o.projector = projector_arg(projector);
+            o.rho = real(rho, "rho");
+            o.rho1 = real(rho1, "rho1");
+            o.lambda_tune = real(lambda_tune, "lambda_tune");
+            o.switch_low = real(switch_low, "switch_low");
+            o.switch_high = real(switch_high, "switch_high");
+            JointVector acc;
+            if (!qddot_max.is_none()) {
+              const CArray a = as_array(qddot_max, "qddot_max");
+              if (a.ndim() == 0) acc = JointVector::Constant(r.dof(), *a.data());
+              else acc = joint_vector_arg(qddot_max, "qddot_max", r.dof());
+            }
+            const SecondaryTaskOptions old = r.secondary;
+            const bool old_on = r.secondary_task, old_avoid = r.avoid_joint_limits;
+            const JointVector old_acc = r.qddot_max;
+            r.secondary = o;
+            r.secondary_task = true;
+            r.avoid_joint_limits = avoid;
+            r.qddot_max = acc;
+            try {
+              r.validate();
+            } catch (...) {
+              r.secondary = old;
+              r.secondary_task = old_on;
+              r.avoid_joint_limits = old_avoid;
+              r.qddot_max = old_acc;
+              throw;
+            }
+          },
+          py::arg("projector") = "classical", py::arg("avoid_joint_limits") = true, py::arg("rho") = 0.1,
+          py::arg("rho1") = 0.3, py::arg("lambda_tune") = 0.7, py::arg("qddot_max") = py::none(),
+          py::arg("switch_low") = 0.1, py::arg("switch_high") = 0.7,
+          R"(Run a SecondaryTask after the joint mapping in every episode of this robot (in place): joint-limit
+avoidance (Marey & Chaumette, IROS 2010; ViSP's thresholds rho, rho1, gain lambda_tune) in the null space of
+the servo's task given by `projector` ("classical" or "large", Marey & Chaumette ICRA 2010), then the caps
+qdot_max and qddot_max (None, a number or (n,) joint accelerations > 0, inf = none; period 1 / fps).)")
+      .def(
+          "clear_secondary_task",
+          [](Robot& r) {
+            r.secondary_task = false;
+            r.avoid_joint_limits = false;
+            r.qddot_max.resize(0);
+            r.secondary = SecondaryTaskOptions{};
+          },
+          "Back to the joint mapping alone (the default).")
+      .def_property_readonly(
+          "secondary_task",
+          [](const Robot& r) -> py::object {
+            if (!r.secondary_task) return py::none();
+            py::dict d;
+            d["projector"] = to_string(r.secondary.projector);
+            d["avoid_joint_limits"] = r.avoid_joint_limits;
+            d["rho"] = r.secondary.rho;
+            d["rho1"] = r.secondary.rho1;
+            d["lambda_tune"] = r.secondary.lambda_tune;
+            d["qddot_max"] = r.qddot_max.size() ? py::cast(Eigen::VectorXd(r.qddot_max)) : py::none();
+            d["switch_low"] = r.secondary.switch_low;
+            d["switch_high"] = r.secondary.switch_high;
+            return std::move(d);
+          },
+          "None, or the settings of set_secondary_task().")
       .def(
           "outside_limits", [](const Robot& r, py::handle q) { return r.outside_limits(q_arg(q, r.dof())); },
           py::arg("q"), "Index of the first joint outside its range, or -1.")
@@ -396,6 +469,18 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
           },
           py::arg("q_min") = py::none(), py::arg("q_max") = py::none(), py::arg("qdot_max") = py::none(),
           "A copy with other joint position / speed limits.")
+      .def(
+          "with_mount",
+          [](const Gantry& g, py::handle mount, py::handle mounting) {
+            Gantry o = g;
+            o.mount = pose_arg(mount, "mount");
+            o.mapping.mounting = mounting_arg(mounting);
+            o.validate();
+            return o;
+          },
+          py::arg("mount"), py::arg("mounting") = "eye_in_hand",
+          "A copy with another camera mount: eMc (eye_in_hand) or, with mounting='eye_to_hand', the fixed "
+          "camera's world <- camera pose (the target then rides on the flange).")
       .def("end_effector", [](const Gantry& g, py::handle q) { return Eigen::Matrix4d(g.end_effector(joints_arg(q, "q"))); },
            py::arg("q"), "world <- end-effector, 4x4.")
       .def(
@@ -407,10 +492,10 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
           [](const Gantry& g) {
             return py::make_tuple(Eigen::VectorXd(g.q_min), Eigen::VectorXd(g.q_max), Eigen::VectorXd(g.qdot_max),
                                   Eigen::Matrix4d(g.mount), g.coupling, g.offset, g.mapping.singular_region,
-                                  g.mapping.damping);
+                                  g.mapping.damping, to_string(g.mapping.mounting));
           },
           [](const py::tuple& s) {
-            if (s.size() != 8) throw py::value_error("Gantry: bad pickle state");
+            if (s.size() != 8 && s.size() != 9) throw py::value_error("Gantry: bad pickle state");
             Gantry g = Gantry::afma6();
             g.q_min = s[0].cast<Eigen::VectorXd>();
             g.q_max = s[1].cast<Eigen::VectorXd>();
@@ -420,6 +505,7 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
             g.offset = s[5].cast<double>();
             g.mapping.singular_region = s[6].cast<double>();
             g.mapping.damping = s[7].cast<double>();
+            if (s.size() == 9) g.mapping.mounting = mounting_arg(s[8]);
             g.validate();
             return g;
           }));

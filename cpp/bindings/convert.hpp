@@ -6,6 +6,7 @@
 
 #include "ibvs/layout.hpp"
 #include "ibvs/robot_mapping.hpp"
+#include "ibvs/secondary_task.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -136,6 +137,24 @@ inline JacobianFrame frame_arg(py::handle obj) {
   if (s == "end_effector") return JacobianFrame::end_effector;
   if (s == "base") return JacobianFrame::base;
   throw py::value_error("frame must be 'end_effector' or 'base', got '" + s + "'");
+}
+
+inline Mounting mounting_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("mounting must be 'eye_in_hand' or 'eye_to_hand', got " + type_name(obj));
+  const auto s = obj.cast<std::string>();
+  if (s == "eye_in_hand") return Mounting::eye_in_hand;
+  if (s == "eye_to_hand") return Mounting::eye_to_hand;
+  throw py::value_error("mounting must be 'eye_in_hand' or 'eye_to_hand', got '" + s + "'");
+}
+
+inline Projector projector_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("projector must be 'classical' or 'large', got " + type_name(obj));
+  const auto s = obj.cast<std::string>();
+  if (s == "classical") return Projector::classical;
+  if (s == "large") return Projector::large;
+  throw py::value_error("projector must be 'classical' or 'large', got '" + s + "'");
 }
 
 }  // namespace ibvs::py_convert

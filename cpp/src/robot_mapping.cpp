@@ -19,10 +19,23 @@ const char* to_string(JacobianFrame f) noexcept {
   return "unknown";
 }
 
+const char* to_string(Mounting m) noexcept {
+  switch (m) {
+    case Mounting::eye_in_hand: return "eye_in_hand";
+    case Mounting::eye_to_hand: return "eye_to_hand";
+  }
+  return "unknown";
+}
+
 namespace {
 
 bool is_rotation(const Eigen::Matrix3d& R) noexcept {
   return R.allFinite() && (R.transpose() * R).isIdentity(1e-9) && std::abs(R.determinant() - 1.0) <= 1e-9;
+}
+
+bool is_rigid(const Pose& T) noexcept {
+  return T.allFinite() && is_rotation(T.topLeftCorner<3, 3>()) && T(3, 0) == 0.0 && T(3, 1) == 0.0 &&
+         T(3, 2) == 0.0 && T(3, 3) == 1.0;
 }
 
 [[noreturn]] void fail(const std::string& s) { throw std::invalid_argument("ibvs: " + s); }
@@ -57,12 +70,14 @@ JointMapping::JointMapping(int n, const Pose& eMc, JointMappingOptions options)
       options_(std::move(options)),
       work_(6, n_),
       svd_(6, n_, Eigen::ComputeThinU | Eigen::ComputeThinV) {
-  if (!is_rotation(eMc.topLeftCorner<3, 3>()) || !eMc.allFinite() || eMc(3, 0) != 0.0 || eMc(3, 1) != 0.0 ||
-      eMc(3, 2) != 0.0 || eMc(3, 3) != 1.0)
-    fail("eMc must be a rigid transform (orthonormal R, last row 0 0 0 1)");
+  if (!is_rigid(eMc))
+    fail(std::string(options_.mounting == Mounting::eye_to_hand ? "bMc" : "eMc") +
+         " must be a rigid transform (orthonormal R, last row 0 0 0 1)");
   const JointMappingOptions& o = options_;
   if (o.frame != JacobianFrame::end_effector && o.frame != JacobianFrame::base)
     fail("frame must be end_effector or base");
+  if (o.mounting != Mounting::eye_in_hand && o.mounting != Mounting::eye_to_hand)
+    fail("mounting must be eye_in_hand or eye_to_hand");
   if (!(o.damping >= 0.0) || !std::isfinite(o.damping)) fail("damping must be finite and >= 0");
   if (!(o.singular_region >= 0.0) || !std::isfinite(o.singular_region))
     fail("singular_region must be finite and >= 0");
@@ -82,8 +97,11 @@ void JointMapping::validate(const JointMappingInput& in) const {
     fail("jacobian must have shape (6, " + std::to_string(n_) + "), got (6, " + std::to_string(in.jacobian.cols()) +
          ")");
   if (!in.jacobian.allFinite()) fail("jacobian must be finite");
-  if (options_.frame == JacobianFrame::base && !is_rotation(in.base_rotation))
+  if (options_.mounting == Mounting::eye_to_hand) {
+    if (!is_rigid(in.base_pose)) fail("bMe must be a rigid transform (orthonormal R, last row 0 0 0 1)");
+  } else if (options_.frame == JacobianFrame::base && !is_rotation(in.base_rotation)) {
     fail("bRe must be a rotation matrix (orthonormal, det +1)");
+  }
   if (in.secondary.size() != n_)
     fail("secondary must have " + std::to_string(n_) + " entries, got " + std::to_string(in.secondary.size()));
   if (!in.secondary.allFinite()) fail("secondary must be finite");
@@ -105,19 +123,32 @@ void JointMapping::camera_jacobian(const Pose& eMc, JacobianFrame frame, const R
   }
 }
 
+void JointMapping::camera_jacobian(const Pose& mount, Mounting mounting, JacobianFrame frame, const RobotJacobian& J,
+                                   const Pose& bMe, RobotJacobian& Jc) noexcept {
+  const Eigen::Matrix3d bRe = bMe.topLeftCorner<3, 3>();
+  if (mounting == Mounting::eye_in_hand) return camera_jacobian(mount, frame, J, bRe, Jc);
+  camera_jacobian(se3_inverse(bMe) * mount, frame, J, bRe, Jc);  // eq. (5): eMc(q) = bMe^-1 bMc
+  Jc = -Jc;
+}
+
 Status JointMapping::update(const JointMappingInput& in, JointMappingOutput& out) noexcept {
   const int n = n_;
   out.qdot.setZero(n);
   out.saturated = false;
   out.saturation_scale = 1.0;
+  const bool eye_to_hand = options_.mounting == Mounting::eye_to_hand;
   const bool ok = in.twist.allFinite() && in.jacobian.cols() == n && in.jacobian.allFinite() &&
                   in.secondary.size() == n && in.secondary.allFinite() &&
-                  (options_.frame != JacobianFrame::base || is_rotation(in.base_rotation));
+                  (eye_to_hand ? is_rigid(in.base_pose)
+                               : (options_.frame != JacobianFrame::base || is_rotation(in.base_rotation)));
   if (!ok) {
     out.camera_jacobian.setZero(6, n);
     return refuse(out, n);
   }
-  camera_jacobian(eMc_, options_.frame, in.jacobian, in.base_rotation, out.camera_jacobian);
+  if (eye_to_hand)
+    camera_jacobian(eMc_, Mounting::eye_to_hand, options_.frame, in.jacobian, in.base_pose, out.camera_jacobian);
+  else
+    camera_jacobian(eMc_, options_.frame, in.jacobian, in.base_rotation, out.camera_jacobian);
   if (!out.camera_jacobian.allFinite()) return refuse(out, n);  // finite input whose eq. (1) overflows
   if (n >= 6 && normal_route(in, out)) return finish(out, Status::ok);
   work_ = out.camera_jacobian;

@@ -8,6 +8,8 @@ Conventions (everywhere the same):
   Servo(..., camera=).update_pixels); poses are 4x4 "a <- b" transforms.
   Robots: base frame b, end effector e, camera c; eMc = end-effector <- camera (4x4);
   joint_velocities / JointMapping turn the camera twist into joint velocities;
+  mounting="eye_to_hand": the camera fixed (bMc), the target on the end effector;
+  SecondaryTask adds null-space motions and joint-limit avoidance to JointMapping's qdot;
   calibrate_hand_eye estimates eMc (or a fixed camera's bMc) from robot and target poses (ibvs.calibration).
 """
 
@@ -28,6 +30,8 @@ from ._core import (
     PartitionedServo,
     PlanarPose,
     Representation,
+    SecondaryTask,
+    SecondaryTaskResult,
     Servo,
     ServoResult,
     Status,
@@ -60,6 +64,8 @@ __all__ = [
     "PartitionedServo",
     "PlanarPose",
     "Representation",
+    "SecondaryTask",
+    "SecondaryTaskResult",
     "Servo",
     "ServoResult",
     "Status",

@@ -9,6 +9,7 @@
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
 #include "ibvs/robot_mapping.hpp"
+#include "ibvs/secondary_task.hpp"
 #include "sim_cases.hpp"
 
 #include <atomic>
@@ -297,7 +298,88 @@ void counter_sees_allocations() {
   ibvs_test::report(news.load() - before >= 1, "operator new counted", __FILE__, __LINE__, std::to_string(v.size()));
 }
 
+// Eye-to-hand JointMapping (eq. 5), SecondaryTask::update with every option (large projector,
+// joint-limit avoidance, both caps, task- and joint-space motions), the refused paths, and episodes
+// with the robot's secondary task on and with the camera eye-to-hand.
+void mounting_and_secondary_allocate_nothing() {
+  using namespace sim_cases;
+  for (int n : {1, 6, 7, max_joints}) {
+    JointMappingOptions mo;
+    mo.mounting = Mounting::eye_to_hand;
+    Pose bMc = Pose::Identity();
+    bMc.topRightCorner<3, 1>() << 0.5, -0.2, 1.0;
+    JointMapping map(n, bMc, mo);
+    JointMappingInput in(n);
+    JointMappingOutput out(n);
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < 6; ++i) in.jacobian(i, j) = std::sin(1.0 + i + 7.0 * j);
+    in.twist << 0.1, -0.2, 0.05, 0.3, -0.1, 0.2;
+    in.base_pose.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    SecondaryTaskOptions so;
+    so.projector = Projector::large;
+    so.q_min = JointVector::Constant(n, -1.0);
+    so.q_max = JointVector::Constant(n, 1.0);
+    so.max_joint_speed = JointVector::Constant(n, 0.05);
+    so.max_joint_acceleration = JointVector::Constant(n, 1.0);
+    so.period = 0.01;
+    SecondaryTask task(n, so);
+    SecondaryTaskInput sin(n);
+    SecondaryTaskOutput sout(n);
+    for (int i = 0; i < n; ++i) sin.q(i) = -1.0 + 2.0 * i / std::max(1, n - 1);  // some joints in the zones
+    sin.twist << 0.01, 0.0, 0.02, 0.0, 0.1, 0.0;
+    sin.joints.setConstant(0.2);
+    sin.task_gram.diagonal() << 1, 2, 3, 0, 0, 1;  // rank 4: the classical part has room
+    sin.task_gradient << 0.1, 0.2, -0.3, 0, 0, 0.1;
+    sin.error_norm = 0.4;  // the sigmoid between the projectors
+    const long before = news.load();
+    Status st = Status::ok, st2 = Status::ok;
+    for (int k = 0; k < 3; ++k) {
+      st = map.update(in, out);
+      sin.camera_jacobian = out.camera_jacobian;
+      sin.qdot = out.qdot;
+      st2 = task.update(sin, sout);
+      sin.qdot_previous = sout.qdot;
+    }
+    in.base_pose(0, 0) = 3.0;  // refused paths
+    const Status bad = map.update(in, out);
+    sin.q(0) = std::nan("");
+    const Status bad2 = task.update(sin, sout);
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in eye-to-hand JointMapping::update and SecondaryTask::update",
+                      __FILE__, __LINE__, std::to_string(n) + " joints: " + std::to_string(during));
+    CHECK(st == Status::ok && st2 == Status::ok && bad == Status::invalid_input && bad2 == Status::invalid_input);
+  }
+  for (bool eye_to_hand : {false, true}) {
+    EpisodeOptions o;
+    o.duration = 3.0;
+    ServoOptions so;
+    so.gain = 2.0;
+    auto robot = std::make_shared<StackedGantry>();
+    robot->secondary_task = true;
+    robot->avoid_joint_limits = true;
+    robot->secondary.projector = Projector::large;
+    robot->qddot_max = JointVector::Constant(7, 5.0);
+    const JointVector qs = stacked_start(), qg = stacked_goal();
+    Target target = gantry_target(robot->g);
+    if (eye_to_hand) {  // the camera fixed where the goal put it, the target on the flange
+      const Pose T_we = robot->g.end_effector(gantry_goal());
+      robot->mount = T_we * robot->mount;
+      robot->mapping.mounting = Mounting::eye_to_hand;
+      target.pose = se3_inverse(T_we) * target.pose;
+    }
+    Episode e(Servo(Layout::stacked(4), so), CameraModel::afma6(), target, robot, o);
+    const Pose goal = e.robot()->camera(qg);
+    const long before = news.load();
+    const EpisodeResult& r = e.run(qs, goal);
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in Episode::run with a secondary task (eye-in-hand, eye-to-hand)",
+                      __FILE__, __LINE__, std::to_string(during));
+    CHECK(r.history.frames > 10);
+  }
+}
+
 void run_tests() {
+  mounting_and_secondary_allocate_nothing();
   counter_sees_allocations();
   estimators_allocate_nothing();
   episode_allocates_nothing();

@@ -15,6 +15,8 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/robot_mapping.hpp"
+#include "ibvs/secondary_task.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -208,13 +210,94 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
+// Eye-to-hand JointMapping and SecondaryTask: options (refused by the constructor or accepted) and
+// inputs from the bytes; validate() throwing implies update() refuses (the latter may also refuse
+// finite input whose result overflows), a refusal leaves qdot = 0, an accepted update is finite.
+void fuzz_mounting_secondary(Bytes& b) {
+  const int n = b.small(1, 9);
+  const bool hostile = b.byte() < 80;
+  const auto value = [&] { return hostile ? b.real() : b.coordinate(); };
+  Pose bMc = Pose::Identity();
+  if (b.byte() < 40) bMc(b.small(0, 3), b.small(0, 3)) = b.real();
+  JointMappingOptions mo;
+  mo.mounting = b.byte() < 128 ? Mounting::eye_to_hand : Mounting::eye_in_hand;
+  mo.frame = b.byte() < 128 ? JacobianFrame::base : JacobianFrame::end_effector;
+  std::optional<JointMapping> map;
+  try {
+    map.emplace(n, bMc, mo);
+  } catch (const std::invalid_argument&) {
+  }
+  JointMappingInput in(n);
+  JointMappingOutput out(n);
+  for (Eigen::Index i = 0; i < in.jacobian.size(); ++i) in.jacobian.data()[i] = value();
+  for (int i = 0; i < 6; ++i) in.twist(i) = value();
+  in.base_pose.topRightCorner<3, 1>() << value(), value(), value();
+  if (b.byte() < 30) in.base_pose(b.small(0, 3), b.small(0, 2)) = b.real();
+  if (map) {
+    bool valid = true;
+    try {
+      map->validate(in);
+    } catch (const std::invalid_argument&) {
+      valid = false;
+    }
+    const Status st = map->update(in, out);
+    ibvs_test::report(valid || st == Status::invalid_input, "mapping: validate() throws => update() refuses",
+                      __FILE__, __LINE__);
+    CHECK(st == Status::invalid_input ? out.qdot.isZero(0.0) : out.qdot.allFinite());
+  }
+  SecondaryTaskOptions so;
+  so.projector = b.byte() < 128 ? Projector::large : Projector::classical;
+  if (b.byte() < 160) {
+    so.q_min = JointVector::Constant(n, b.byte() < 30 ? b.real() : -1.0);
+    so.q_max = JointVector::Constant(n, b.byte() < 30 ? b.real() : 1.0);
+  }
+  if (b.byte() < 30) so.rho = b.real();
+  if (b.byte() < 30) so.switch_high = b.real();
+  if (b.byte() < 100) so.max_joint_speed = JointVector::Constant(n, b.byte() < 30 ? b.real() : 0.5);
+  if (b.byte() < 100) {
+    so.max_joint_acceleration = JointVector::Constant(n, b.byte() < 30 ? b.real() : 2.0);
+    so.period = b.byte() < 30 ? b.real() : 0.01;
+  }
+  std::optional<SecondaryTask> task;
+  try {
+    task.emplace(n, so);
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  SecondaryTaskInput sin(n);
+  SecondaryTaskOutput sout(n);
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j <= i; ++j) sin.task_gram(i, j) = sin.task_gram(j, i) = value();
+  if (b.byte() < 20) sin.task_gram(0, 1) = b.real();  // perhaps not symmetric
+  for (int i = 0; i < 6; ++i) sin.task_gradient(i) = value(), sin.twist(i) = value();
+  sin.error_norm = b.byte() < 30 ? b.real() : std::abs(value());
+  sin.camera_jacobian = in.jacobian;
+  for (int i = 0; i < n; ++i) {
+    sin.qdot(i) = value();
+    sin.q(i) = value();
+    sin.qdot_previous(i) = value();
+    sin.joints(i) = value();
+  }
+  bool valid = true;
+  try {
+    task->validate(sin);
+  } catch (const std::invalid_argument&) {
+    valid = false;
+  }
+  const Status st = task->update(sin, sout);
+  ibvs_test::report(valid || st == Status::invalid_input, "secondary: validate() throws => update() refuses", __FILE__,
+                    __LINE__);
+  CHECK(st == Status::invalid_input ? sout.qdot.isZero(0.0) : sout.qdot.allFinite());
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 3) {
+  switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
+    case 2: fuzz_mounting_secondary(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

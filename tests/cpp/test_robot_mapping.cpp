@@ -301,7 +301,68 @@ void routes_agree_with_the_svd_formula() {
                     std::to_string(worst_smax) + " " + std::to_string(worst_smin) + " " + std::to_string(worst_w));
 }
 
+// Eq. (5), eye-to-hand: Jc = -cVe(q) eJe against central differences of the camera's pose in the
+// end effector's frame, eMc(q) = bMe(q)^-1 bMc (the target rides on e, the camera is fixed); both
+// Jacobian frames; and update() solving it: Jc qdot = v.
+void eye_to_hand_matches_finite_differences() {
+  std::mt19937 rng(ibvs_test::seed + 7);
+  double worst = 0.0, worst_v = 0.0;
+  const double h = 1e-6;
+  for (int c = 0; c < ibvs_test::cases / 5; ++c) {
+    const int n = 6 + c % 4;
+    const RandomArm arm(n, rng);
+    const JointVector q = arm.random_q(rng);
+    const Pose bMc = RandomArm::random_pose(rng);
+    const auto rel = [&](const JointVector& x) { return Pose(se3_inverse(arm.fk(x)) * bMc); };
+    RobotJacobian fd(6, n);
+    const Pose Ti = se3_inverse(rel(q));
+    for (int j = 0; j < n; ++j) {
+      JointVector dq = JointVector::Zero(n);
+      dq(j) = h;
+      const Pose D = Ti * (rel(q + dq) - rel(q - dq)) / (2 * h);
+      fd.col(j) << D(0, 3), D(1, 3), D(2, 3), D(2, 1), D(0, 2), D(1, 0);
+    }
+    const Pose bMe = arm.fk(q);
+    const RobotJacobian Je = arm.body_jacobian_fd(q, Pose::Identity());
+    RobotJacobian Jb(6, n);
+    Jb.topRows<3>() = bMe.topLeftCorner<3, 3>() * Je.topRows<3>();
+    Jb.bottomRows<3>() = bMe.topLeftCorner<3, 3>() * Je.bottomRows<3>();
+    RobotJacobian Jc;
+    JointMapping::camera_jacobian(bMc, Mounting::eye_to_hand, JacobianFrame::end_effector, Je, bMe, Jc);
+    worst = std::max(worst, (Jc - fd).cwiseAbs().maxCoeff());
+    JointMapping::camera_jacobian(bMc, Mounting::eye_to_hand, JacobianFrame::base, Jb, bMe, Jc);
+    worst = std::max(worst, (Jc - fd).cwiseAbs().maxCoeff());
+    JointMappingOptions o;
+    o.mounting = Mounting::eye_to_hand;
+    JointMapping map(n, bMc, o);
+    JointMappingInput in(n);
+    JointMappingOutput out(n);
+    in.twist = random_twist(rng);
+    in.jacobian = Je;
+    in.base_pose = bMe;
+    map.validate(in);
+    if (map.update(in, out) == Status::ok)
+      worst_v = std::max(worst_v, (out.camera_jacobian * out.qdot - in.twist).cwiseAbs().maxCoeff());
+  }
+  ibvs_test::report(worst < 1e-7, "eye-to-hand camera Jacobian (eq. 5) = central differences of eMc(q)", __FILE__,
+                    __LINE__, std::to_string(worst));
+  ibvs_test::report(worst_v < 1e-8, "eye-to-hand update: Jc qdot = twist", __FILE__, __LINE__, std::to_string(worst_v));
+  // A bMe that is not rigid is refused by both channels.
+  JointMappingOptions o;
+  o.mounting = Mounting::eye_to_hand;
+  JointMapping map(6, Pose::Identity(), o);
+  JointMappingInput in(6);
+  JointMappingOutput out(6);
+  in.base_pose(0, 0) = 2.0;
+  CHECK_THROWS(map.validate(in));
+  CHECK(map.update(in, out) == Status::invalid_input && out.qdot.isZero(0.0));
+  in.base_pose = Pose::Identity();
+  in.base_pose(1, 3) = std::numeric_limits<double>::quiet_NaN();
+  CHECK(map.update(in, out) == Status::invalid_input);
+}
+
 void run_tests() {
+  eye_to_hand_matches_finite_differences();
   routes_agree_with_the_svd_formula();
   camera_jacobian_matches_finite_differences();
   reproduces_the_twist();

@@ -52,6 +52,20 @@
 // cond(Jc) <= 1e5, so that rank = 6 for certain; otherwise (n < 6, near or at
 // a singularity) the SVD of Jc as written above.
 //
+// Eye-to-hand (Mounting::eye_to_hand): the camera is fixed in the base frame
+// (bMc, constant, given in place of eMc) and the target is carried by the end
+// effector. The servo's twist v is still the camera's motion relative to the
+// target, in the camera frame; the target moving with the end-effector twist
+// (v_e, w_e) (frame e) gives the camera the relative twist -cVe (v_e, w_e),
+// with cMe = bMc^-1 bMe(q) now changing with q (ViSP's vpServo
+// EYETOHAND_L_cVf_fVe_eJe: J1 = -L cVf fVe eJe, cVf = V(bMc^-1), fVe = V(bMe);
+// modules/vs/src/vpServo.cpp, computeControlLaw, "J1 *= signInteractionMatrix"
+// with the sign -1 of the eye-to-hand types). So
+//   Jc = -cVe(q) eJe,  cMe = bMc^-1 bMe,                                        (5)
+// i.e. eq. (1) with the q-dependent eMc(q) = bMe^-1 bMc and a minus sign; the
+// input's base_pose carries bMe every frame. Everything after eq. (1) (the
+// solve, damping, null space, limits) is unchanged.
+//
 // JointMapping is sized once (n <= max_joints, a compile-time bound that keeps
 // every matrix on the stack); update() is noexcept and never allocates.
 #pragma once
@@ -81,8 +95,16 @@ enum class JacobianFrame : std::uint8_t {
 };
 const char* to_string(JacobianFrame f) noexcept;
 
+/// Where the camera is (see above, eq. 5).
+enum class Mounting : std::uint8_t {
+  eye_in_hand = 0,  ///< on the end effector: the constant transform is eMc (eq. 1)
+  eye_to_hand = 1,  ///< fixed in the base frame, the target on the end effector: the constant transform is bMc (eq. 5)
+};
+const char* to_string(Mounting m) noexcept;
+
 struct JointMappingOptions {
   JacobianFrame frame = JacobianFrame::end_effector;
+  Mounting mounting = Mounting::eye_in_hand;  ///< eye_to_hand: eq. (5), the input's base_pose needed
   double damping = 0.0;          ///< lambda >= 0 (eq. 2), or its maximum with singular_region > 0
   double singular_region = 0.0;  ///< eps >= 0 of eq. (3); 0 = constant damping
   /// Joint-speed limits (m/s or rad/s per joint), n entries > 0 (inf = none);
@@ -97,6 +119,9 @@ struct JointMappingInput {
   RobotJacobian jacobian;           ///< 6 x n end-effector Jacobian in options.frame
   Eigen::Matrix3d base_rotation = Eigen::Matrix3d::Identity();  ///< bRe (JacobianFrame::base only)
   JointVector secondary;            ///< n joint velocities for the null space (eq. 4); zero = none
+  /// bMe, base <- end effector (eye_to_hand only: eq. 5; its rotation then also serves
+  /// JacobianFrame::base and base_rotation is not read).
+  Pose base_pose = Pose::Identity();
 };
 
 /// Per-frame output, sized once for n joints.
@@ -118,7 +143,8 @@ struct JointMappingOutput {
 
 class JointMapping {
  public:
-  /// n joints in [1, max_joints]; eMc end-effector <- camera. Throws
+  /// n joints in [1, max_joints]; eMc end-effector <- camera (eye_in_hand) or
+  /// bMc base <- camera (options.mounting = eye_to_hand). Throws
   /// std::invalid_argument naming the bad argument.
   JointMapping(int n, const Pose& eMc, JointMappingOptions options = {});
 
@@ -138,6 +164,10 @@ class JointMapping {
   /// `frame` (bRe used for JacobianFrame::base).
   static void camera_jacobian(const Pose& eMc, JacobianFrame frame, const RobotJacobian& J,
                               const Eigen::Matrix3d& bRe, RobotJacobian& Jc) noexcept;
+  /// Eq. (1) or (5): `mount` is eMc (eye_in_hand) or bMc (eye_to_hand); bMe the
+  /// end effector's pose (its rotation for JacobianFrame::base; all of it for eye_to_hand).
+  static void camera_jacobian(const Pose& mount, Mounting mounting, JacobianFrame frame, const RobotJacobian& J,
+                              const Pose& bMe, RobotJacobian& Jc) noexcept;
 
  private:
   int n_;

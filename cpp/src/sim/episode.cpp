@@ -243,7 +243,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     // Actuate: the motion until the next frame.
     const Twist& v = control.output().velocity;
     Pose T_next;
-    const int joint = actuate.step(v, T_wc, T_next);
+    const int joint = actuate.step(v, &control.output(), T_wc, T_next);
     if (q) stages::record_joints(h, k, actuate.joints());
     if (judge.motion(k, joint, st)) break;
     depths.odometry(k, T_wc, T_next);  // the camera's motion as the odometry knows it

@@ -58,7 +58,7 @@ Matrix6 Gantry::base_jacobian(const Joints& q) const noexcept {
 Matrix6 Gantry::jacobian(const Joints& q) const noexcept {
   const RobotJacobian J = base_jacobian(q);
   RobotJacobian Jc;
-  JointMapping::camera_jacobian(mount, JacobianFrame::base, J, end_effector(q).topLeftCorner<3, 3>(), Jc);
+  JointMapping::camera_jacobian(mount, mapping.mounting, JacobianFrame::base, J, end_effector(q), Jc);
   return Jc;
 }
 
@@ -82,8 +82,8 @@ void Gantry::validate() const {
 
 std::string Gantry::describe() const {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "Gantry(afma6-like, coupling=%g, offset=%g, qdot_max=(%g, %g, %g, %g, %g, %g))",
-                coupling, offset, qdot_max(0), qdot_max(1), qdot_max(2), qdot_max(3), qdot_max(4), qdot_max(5));
+  std::snprintf(buf, sizeof buf, "Gantry(afma6-like%s, coupling=%g, offset=%g, qdot_max=(%g, %g, %g, %g, %g, %g))",
+                eye_to_hand() ? ", eye_to_hand" : "", coupling, offset, qdot_max(0), qdot_max(1), qdot_max(2), qdot_max(3), qdot_max(4), qdot_max(5));
   return buf;
 }
 

@@ -26,14 +26,18 @@ Pose Robot::camera(const JointVector& q) const {
   Pose T_we;
   RobotJacobian J;
   checked_kinematics(*this, q, T_we, J);
-  return T_we * mount;
+  return camera_from(T_we);
+}
+
+Pose Robot::camera_from(const Pose& T_we) const noexcept {
+  return eye_to_hand() ? Pose(se3_inverse(T_we) * mount) : Pose(T_we * mount);
 }
 
 RobotJacobian Robot::camera_jacobian(const JointVector& q) const {
   Pose T_we;
   RobotJacobian J, Jc;
   checked_kinematics(*this, q, T_we, J);
-  JointMapping::camera_jacobian(mount, mapping.frame, J, T_we.topLeftCorner<3, 3>(), Jc);
+  JointMapping::camera_jacobian(mount, mapping.mounting, mapping.frame, J, T_we, Jc);
   return Jc;
 }
 
@@ -44,6 +48,7 @@ JointVector Robot::joint_velocity(const JointVector& q, const Twist& v) const {
   checked_kinematics(*this, q, T_we, in.jacobian);
   in.twist = v;
   in.base_rotation = T_we.topLeftCorner<3, 3>();
+  in.base_pose = T_we;
   JointMappingOptions o = mapping;
   o.max_joint_speed.resize(0);
   JointMapping map(dof(), mount, o);
@@ -64,6 +69,20 @@ JointMappingOptions Robot::mapping_options() const {
   return o;
 }
 
+SecondaryTaskOptions Robot::secondary_options(double period) const {
+  SecondaryTaskOptions o = secondary;
+  o.q_min.resize(0);
+  o.q_max.resize(0);
+  if (avoid_joint_limits) {
+    o.q_min = q_min;
+    o.q_max = q_max;
+  }
+  o.max_joint_speed = qdot_max;
+  o.max_joint_acceleration = qddot_max;
+  o.period = period;
+  return o;
+}
+
 void Robot::validate() const {
   const int n = dof();
   if (n < 1 || n > max_joints) fail("robot must have 1 to " + std::to_string(max_joints) + " joints, got " + std::to_string(n));
@@ -77,8 +96,18 @@ void Robot::validate() const {
   }
   const JointMapping check(n, mount, mapping_options());  // throws for a bad mount or mapping option
   static_cast<void>(check);
+  if (qddot_max.size() != 0 && qddot_max.size() != n)
+    fail("robot qddot_max must be empty or have " + std::to_string(n) + " entries, got " +
+         std::to_string(qddot_max.size()));
+  if (qddot_max.size() != 0 && !secondary_task) fail("robot qddot_max needs the secondary task on");
+  if (secondary_task) {
+    const SecondaryTask task(n, secondary_options(1.0));  // throws for a bad option
+    static_cast<void>(task);
+  }
 }
 
-std::string Robot::describe() const { return "Robot(" + std::to_string(dof()) + " joints)"; }
+std::string Robot::describe() const {
+  return "Robot(" + std::to_string(dof()) + " joints" + (eye_to_hand() ? ", eye_to_hand)" : ")");
+}
 
 }  // namespace ibvs::sim

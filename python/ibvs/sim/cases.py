@@ -28,7 +28,7 @@ from .._core import sim as _sim
 from .ik import solve_ik, solve_joints  # noqa: F401  (solve_joints: the name scripts used before solve_ik)
 from .poses import pose
 
-__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "arm_robot", "ARMS", "solve_ik", "solve_joints", "free_cases", "all_cases", "six_point_circle"]
+__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "arm_robot", "ARMS", "eye_to_hand", "EYE_TO_HAND_MOTIONS", "solve_ik", "solve_joints", "free_cases", "all_cases", "six_point_circle"]
 
 
 @dataclass(frozen=True)
@@ -244,6 +244,62 @@ def arm_general_motion(name: str = "panda", robot: Optional[_sim.Robot] = None, 
     start = _start_joints(robot, goal_pose @ pose(t=GANTRY_GENERAL_MOTION_T, r=GANTRY_GENERAL_MOTION_R), goal)
     return Case(f"{name}_general_motion", f"general motion with a camera on the {name} arm (URDF, Pinocchio)",
                 CameraModel.afma6(), target, start, goal, robot, 15.0)
+
+
+# Eye-to-hand: the target (10 cm square) rides 10 cm beyond the flange, facing back along its axis
+# (end effector <- target); the camera is fixed in the world, ARM_DESIRED_DEPTH in front of it at the
+# goal joints, looking back at the tool. The paper's start offsets, as relative camera <- target motions
+# (the camera moved in its own frame from the goal; here the target moves the opposite way): its
+# x-translation (0.2 at 3 m depth, scaled to 0.5 m), its z-rotation of pi and the general motion of
+# arm_general_motion.
+EYE_TO_HAND_TARGET = ((0.0, 0.0, 0.1), (np.pi, 0.0, 0.0))
+EYE_TO_HAND_MOTIONS = {
+    "x_translation": ((0.2 * ARM_DESIRED_DEPTH / 3.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+    "z_rotation": ((0.0, 0.0, 0.0), (0.0, 0.0, np.pi)),
+    "general_motion": (GANTRY_GENERAL_MOTION_T, GANTRY_GENERAL_MOTION_R),
+}
+
+
+def eye_to_hand(name: str = "panda", motion: str = "general_motion") -> Case:
+    """A paper case transposed to eye-to-hand: the camera fixed in the world, the target carried by the
+    end effector of an arm ("panda", "ur5": ibvs.sim.UrdfRobot, Pinocchio) or the gantry ("gantry").
+
+    motion: "x_translation", "z_rotation" or "general_motion" (EYE_TO_HAND_MOTIONS: the relative start
+    camera <- target offset). The robot's mount is the camera's world <- camera pose (mounting
+    "eye_to_hand"); the case's target pose is end effector <- target (EYE_TO_HAND_TARGET) and its poses
+    (robot.camera(q)) are end effector <- camera: the episode runs in the end effector's frame, where the
+    target is still. Goal joints: ARMS[name] (GANTRY_GOAL_Q for the gantry). The z-rotation's start is
+    searched from the goal with the last joint turned by -pi (the flange axis is the optical axis).
+    ValueError when the start cannot be reached within the joint limits.
+    """
+    if motion not in EYE_TO_HAND_MOTIONS:
+        raise ValueError(f"motion must be one of {sorted(EYE_TO_HAND_MOTIONS)}, got {motion!r}")
+    eMo = pose(*EYE_TO_HAND_TARGET)
+    if name == "gantry":
+        goal = np.array(GANTRY_GOAL_Q)
+        bMe = _sim.Gantry.afma6().end_effector(goal)
+        bMc = bMe @ eMo @ pose(t=(0.0, 0.0, -ARM_DESIRED_DEPTH))
+        robot = _sim.Gantry.afma6().with_mount(bMc, "eye_to_hand")
+        camera = CameraModel.afma6()
+    elif name in ARMS:
+        from .urdf import UrdfRobot
+
+        goal = np.array(ARMS[name][0])
+        bMe = np.asarray(UrdfRobot.example(name).kinematics(goal)[0])
+        bMc = bMe @ eMo @ pose(t=(0.0, 0.0, -ARM_DESIRED_DEPTH))
+        robot = UrdfRobot.example(name, bMc, mounting="eye_to_hand")
+        camera = CameraModel.afma6()
+    else:
+        raise ValueError(f"name must be 'gantry' or one of {sorted(ARMS)}, got {name!r}")
+    goal_pose = robot.camera(goal)  # end effector <- camera
+    target = _sim.Target.square(0.1, eMo)
+    t, r = EYE_TO_HAND_MOTIONS[motion]
+    seed = goal.copy()
+    if motion == "z_rotation":
+        seed[-1] -= np.pi
+    start = _start_joints(robot, goal_pose @ pose(t=t, r=r), seed)
+    return Case(f"{name}_eye_to_hand_{motion}", f"{motion} with the target on the {name} and a fixed camera",
+                camera, target, start, goal, robot, 15.0, {"start_offset": (t, r), "eMo": eMo})
 
 
 def free_cases() -> list[Case]:

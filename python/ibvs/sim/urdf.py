@@ -73,6 +73,9 @@ class UrdfRobot(_sim.Robot):
     damping, singular_region: the JointMapping's (0, 0: the exact minimum-norm inverse).
     q_min, q_max, qdot_max: None (the URDF's position and velocity limits) or (n,) limits
     overriding them (radians or metres per joint, and per second).
+    mounting: "eye_in_hand" (the camera on `frame`, eMc) or "eye_to_hand": the camera fixed in the
+    world and eMc its world <- camera pose bMc, the target riding on `frame`; the episode then runs in
+    that frame (Target.pose = frame <- target; camera(q) = bMe(q)^-1 bMc; docs/arms.md, Eye-to-hand).
 
     UrdfRobot.example(name, eMc) builds one of EXAMPLE_ROBOTS. Pickles by its arguments (the
     Pinocchio model is rebuilt; an example by its name, so a worker on another machine loads its own
@@ -90,6 +93,7 @@ class UrdfRobot(_sim.Robot):
         q_min=None,
         q_max=None,
         qdot_max=None,
+        mounting: str = "eye_in_hand",
     ) -> None:
         pin = _pinocchio()
         if not isinstance(urdf_path, (str, os.PathLike)):
@@ -127,8 +131,9 @@ class UrdfRobot(_sim.Robot):
         speed[~(speed > 0)] = np.inf  # no <limit velocity>: no limit
         speed = speed if qdot_max is None else qdot_max
         mount = np.eye(4) if eMc is None else eMc
-        super().__init__(lower, upper, speed, mount, jacobian_frame, float(damping), float(singular_region))
-        self._args = (urdf_path, frame, eMc, jacobian_frame, damping, singular_region, q_min, q_max, qdot_max)
+        super().__init__(lower, upper, speed, mount, jacobian_frame, float(damping), float(singular_region), mounting)
+        self._args = (urdf_path, frame, eMc, jacobian_frame, damping, singular_region, q_min, q_max, qdot_max,
+                      mounting)
         self.example_name = None  # set by example()
         self._pin = pin
         self.model = model
@@ -147,11 +152,12 @@ class UrdfRobot(_sim.Robot):
 
     @staticmethod
     def example(name: str, eMc=None, jacobian_frame: str = "end_effector", damping: float = 0.0,
-                singular_region: float = 0.0, q_min=None, q_max=None, qdot_max=None) -> "UrdfRobot":
+                singular_region: float = 0.0, q_min=None, q_max=None, qdot_max=None,
+                mounting: str = "eye_in_hand") -> "UrdfRobot":
         """One of EXAMPLE_ROBOTS ("panda": Franka Panda, 7 joints, camera frame panda_hand; "ur5":
         Universal Robots UR5, 6 joints, tool0) from example-robot-data; the other arguments as UrdfRobot's."""
         robot = UrdfRobot(example_robot_urdf(name), EXAMPLE_ROBOTS[name][1], eMc, jacobian_frame, damping,
-                          singular_region, q_min, q_max, qdot_max)
+                          singular_region, q_min, q_max, qdot_max, mounting)
         robot.example_name = name
         return robot
 
@@ -159,13 +165,16 @@ class UrdfRobot(_sim.Robot):
         """What determines this robot's kinematics and limits, independent of where its URDF lies: the
         example's name or a digest of the URDF's content, the frame, eMc and the other arguments (the
         config hash of a sweep over it: ibvs.study.scenario.Scenario.key)."""
-        path, frame, eMc, *rest = self._args
+        path, frame, eMc, *rest, mounting = self._args
         names = ("jacobian_frame", "damping", "singular_region", "q_min", "q_max", "qdot_max")
         urdf = {"example": self.example_name} if self.example_name else \
             {"urdf_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}
         as_list = (lambda x: None if x is None else np.asarray(x, dtype=float).tolist())
-        return {**urdf, "frame": frame, "eMc": as_list(eMc),
-                **{k: (as_list(v) if k.startswith("q") else v) for k, v in zip(names, rest)}}
+        out = {**urdf, "frame": frame, "eMc": as_list(eMc),
+               **{k: (as_list(v) if k.startswith("q") else v) for k, v in zip(names, rest)}}
+        if mounting != "eye_in_hand":  # only then, so that the eye-in-hand keys of existing sweeps stay
+            out["mounting"] = mounting
+        return out
 
     def __reduce__(self):
         if self.example_name:
@@ -174,4 +183,5 @@ class UrdfRobot(_sim.Robot):
 
     def __repr__(self) -> str:
         what = self.example_name or Path(self._args[0]).name
-        return f"UrdfRobot({what!r}, {self.frame_name!r}, {self.dof} joints)"
+        tail = ", eye_to_hand" if self.mounting == "eye_to_hand" else ""
+        return f"UrdfRobot({what!r}, {self.frame_name!r}, {self.dof} joints{tail})"
