@@ -588,6 +588,7 @@ class JointMapping:
         damping: float = 0.0,
         singular_region: float = 0.0,
         max_joint_speed: Union[float, _ArrayLike, None] = None,
+        mounting: str = "eye_in_hand",
     ) -> None: ...
     def update(
         self,
@@ -595,9 +596,14 @@ class JointMapping:
         jacobian: _ArrayLike,
         bRe: _ArrayLike | None = None,
         secondary: _ArrayLike | None = None,
+        bMe: _ArrayLike | None = None,
     ) -> JointMappingResult:
         """twist (6,) camera frame; jacobian (6, n) end-effector Jacobian in `frame`; bRe (3, 3) for
-        frame='base'; secondary (n,) joint velocities projected into the null space."""
+        frame='base'; secondary (n,) joint velocities projected into the null space; bMe (4, 4) base <-
+        end effector, required with mounting='eye_to_hand' (then eMc is the fixed camera's bMc)."""
+    @property
+    def mounting(self) -> str:
+        """'eye_in_hand' or 'eye_to_hand'."""
     @property
     def n_joints(self) -> int:
         """n, the number of joints."""
@@ -629,8 +635,84 @@ def joint_velocities(
     singular_region: float = 0.0,
     max_joint_speed: Union[float, _ArrayLike, None] = None,
     secondary: _ArrayLike | None = None,
+    mounting: str = "eye_in_hand",
+    bMe: _ArrayLike | None = None,
 ) -> _FloatArray:
     """(n,) joint velocities moving the camera with `twist` (JointMapping(...).update(...).qdot)."""
+
+class SecondaryTaskResult:
+    """Result of SecondaryTask.update()."""
+
+    @property
+    def status(self) -> Status:
+        """ok."""
+    @property
+    def qdot(self) -> _FloatArray:
+        """(n,) the joint velocities to command."""
+    @property
+    def secondary(self) -> _FloatArray:
+        """(n,) the projected secondary motion P (joints + Jc^+ twist)."""
+    @property
+    def avoidance(self) -> _FloatArray:
+        """(n,) the joint-limit avoidance term."""
+    @property
+    def weight(self) -> float:
+        """s of the large projector's switch (0 with the classical projector)."""
+    @property
+    def rank(self) -> int:
+        """Rank of the primary task's joint Jacobian L Jc."""
+    @property
+    def active(self) -> int:
+        """Joints beyond their activation threshold."""
+    @property
+    def saturation_scale(self) -> float:
+        """Speed-cap factor in (0, 1]."""
+    @property
+    def acceleration_scale(self) -> float:
+        """Acceleration-cap factor in (0, 1]."""
+
+class SecondaryTask:
+    """Secondary motions in the null space of a servo's task (classical or large projector), joint-limit
+    avoidance (Marey & Chaumette 2010, ViSP's thresholds) and joint speed / acceleration caps."""
+
+    def __init__(
+        self,
+        n_joints: int,
+        projector: str = "classical",
+        q_min: _ArrayLike | None = None,
+        q_max: _ArrayLike | None = None,
+        rho: float = 0.1,
+        rho1: float = 0.3,
+        lambda_tune: float = 0.7,
+        max_joint_speed: Union[float, _ArrayLike, None] = None,
+        max_joint_acceleration: Union[float, _ArrayLike, None] = None,
+        period: float = 0.0,
+        switch_low: float = 0.1,
+        switch_high: float = 0.7,
+    ) -> None: ...
+    def update(
+        self,
+        qdot: _ArrayLike,
+        camera_jacobian: _ArrayLike,
+        interaction: _ArrayLike | None = None,
+        error: _ArrayLike | None = None,
+        q: _ArrayLike | None = None,
+        qdot_previous: _ArrayLike | None = None,
+        twist: _ArrayLike | None = None,
+        joints: _ArrayLike | None = None,
+    ) -> SecondaryTaskResult:
+        """qdot (n,) primary joint velocities, camera_jacobian (6, n), interaction (M, 6) and error (M,) of the
+        servo, q (n,) joint positions, qdot_previous (n,) last command, twist (6,) task-space and joints (n,)
+        joint-space secondary motions."""
+    @property
+    def n_joints(self) -> int:
+        """n, the number of joints."""
+    @property
+    def projector(self) -> str:
+        """'classical' or 'large'."""
+    @property
+    def avoids_joint_limits(self) -> bool:
+        """True when q_min and q_max were given."""
 
 def segment_angle(uv: _ArrayLike, i: int, j: int) -> float:
     """theta_z: angle of the image segment from point i to point j."""
@@ -683,7 +765,28 @@ class sim:
             frame: str = "end_effector",
             damping: float = 0.0,
             singular_region: float = 0.0,
+            mounting: str = "eye_in_hand",
         ) -> None: ...
+        @property
+        def mounting(self) -> str:
+            """'eye_in_hand' or 'eye_to_hand' (the camera fixed at mount = bMc, the target on the end effector)."""
+        @property
+        def secondary_task(self) -> dict[str, Any] | None:
+            """None, or the settings of set_secondary_task()."""
+        def set_secondary_task(
+            self,
+            projector: str = "classical",
+            avoid_joint_limits: bool = True,
+            rho: float = 0.1,
+            rho1: float = 0.3,
+            lambda_tune: float = 0.7,
+            qddot_max: Union[float, _ArrayLike, None] = None,
+            switch_low: float = 0.1,
+            switch_high: float = 0.7,
+        ) -> None:
+            """Run a SecondaryTask (joint-limit avoidance, caps) after the joint mapping in every episode."""
+        def clear_secondary_task(self) -> None:
+            """Back to the joint mapping alone."""
         @property
         def dof(self) -> int:
             """Number of joints n."""
@@ -739,6 +842,8 @@ class sim:
             qdot_max: _ArrayLike | None = None,
         ) -> sim.Gantry:
             """A copy with other joint position / speed limits."""
+        def with_mount(self, mount: _ArrayLike, mounting: str = "eye_in_hand") -> sim.Gantry:
+            """A copy with another camera mount (eMc, or the fixed camera's world <- camera with 'eye_to_hand')."""
         def end_effector(self, q: _ArrayLike) -> _FloatArray:
             """world <- end-effector, 4x4."""
         def manipulability(self, q: _ArrayLike) -> float:

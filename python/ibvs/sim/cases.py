@@ -269,7 +269,9 @@ def eye_to_hand(name: str = "panda", motion: str = "general_motion") -> Case:
     "eye_to_hand"); the case's target pose is end effector <- target (EYE_TO_HAND_TARGET) and its poses
     (robot.camera(q)) are end effector <- camera: the episode runs in the end effector's frame, where the
     target is still. Goal joints: ARMS[name] (GANTRY_GOAL_Q for the gantry). The z-rotation's start is
-    searched from the goal with the last joint turned by -pi (the flange axis is the optical axis).
+    searched from the goal with the last joint turned by -pi (the flange axis is the optical axis). The camera
+    stands ARM_DESIRED_DEPTH (0.5 m) from the target at the goal, DESIRED_DEPTH (0.6 m) on the gantry as in
+    gantry_general_motion.
     ValueError when the start cannot be reached within the joint limits.
     """
     if motion not in EYE_TO_HAND_MOTIONS:
@@ -278,7 +280,7 @@ def eye_to_hand(name: str = "panda", motion: str = "general_motion") -> Case:
     if name == "gantry":
         goal = np.array(GANTRY_GOAL_Q)
         bMe = _sim.Gantry.afma6().end_effector(goal)
-        bMc = bMe @ eMo @ pose(t=(0.0, 0.0, -ARM_DESIRED_DEPTH))
+        bMc = bMe @ eMo @ pose(t=(0.0, 0.0, -DESIRED_DEPTH))  # the gantry case's 0.6 m
         robot = _sim.Gantry.afma6().with_mount(bMc, "eye_to_hand")
         camera = CameraModel.afma6()
     elif name in ARMS:
