@@ -79,6 +79,9 @@ SHRINK = {
     # The full run (2 min on 2 cores) rewrites the page's tables; here a few episodes, written into the test's folder.
     ("docs/hand-eye.md", "python docs/scripts/hand_eye.py"): [
         ("python docs/scripts/hand_eye.py\n", "python docs/scripts/hand_eye.py --quick --jobs 1 --docs .\n")],
+    # The full run (about 2 min) rewrites the arms page's table; here 2 starts, written into the test's folder.
+    ("docs/arms.md", "python docs/scripts/joint_limits.py"): [
+        ("python docs/scripts/joint_limits.py\n", "python docs/scripts/joint_limits.py --quick --docs .\n")],
 }
 
 # Blocks not run here, and why.
@@ -128,6 +131,10 @@ PRINTS = {
     # frame 218 and 1.0 mm with OpenCV 5.0, 220 and 1.1 mm with 4.14 (sub-pixel corners differ between versions)
     ("docs/arms.md", "cv2.aruco.ArucoDetector"): ["(converged)", "camera 1."],
     ("docs/arms.md", "print(r, r.history.q.shape)"): ["converged at frame 765"],
+    ("docs/arms.md", 'sim.cases.eye_to_hand("ur5", "z_rotation")'): ["eye_to_hand)", "converged at frame 795", "True"],
+    ("docs/arms.md", "for projector in (None"): ["no avoidance: joint_limit", "classical: joint_limit",
+                                                  "large: converged"],
+    ("docs/arms.md", "ibvs.SecondaryTask(7, projector"): ["active=1", "d|e|^2/dt changed by"],
     ("docs/simulator.md", "noise=0.3, latency=1, seed=7"): ["converged"],
     ("docs/control-law.md", "ibvs.PartitionedServo(4, gain=1.0)"): ["cartesian    Tz"],
     ("docs/control-law.md", "max_linear_speed=0.5, max_angular_speed=1.0"): ["True 0.0625"],

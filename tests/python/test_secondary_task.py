@@ -75,8 +75,13 @@ def test_joint_limit_avoidance_pushes_back(panda):
     task = ibvs.SecondaryTask(7, projector="large", q_min=lo, q_max=hi)
     r = task.update(qdot1, Jc, L, e, q=q_near)
     assert r.active == 1 and task.avoids_joint_limits
-    if abs(qdot1[0]) > 1e-9:
-        assert r.qdot[0] == pytest.approx(-0.7 * abs(qdot1[0]), rel=1e-9)  # -lambda_tune |qdot1_0|
+    assert abs(qdot1[0]) > 1e-3
+    # ViSP's correction of joint i beyond q_l1: -(1 + lambda_tune) |qdot1_i| on joint i itself (P_ii > 0),
+    # so -lambda_tune |qdot1_i| when the task drives it towards the limit
+    assert r.qdot[0] == pytest.approx(qdot1[0] - 1.7 * abs(qdot1[0]), rel=1e-9)
+    flipped = task.update(-qdot1, Jc, L, -e, q=q_near)  # the task driving joint 0 the other way
+    assert flipped.qdot[0] == pytest.approx(-qdot1[0] - 1.7 * abs(qdot1[0]), rel=1e-9)
+    assert max(r.qdot[0], flipped.qdot[0]) == pytest.approx(-0.7 * abs(qdot1[0]), rel=1e-9)  # both move back
     assert abs(e @ L @ Jc @ (r.qdot - qdot1)) < 1e-9
     safe = task.update(qdot1, Jc, L, e, q=q)
     assert safe.active == 0 and np.array_equal(safe.qdot, qdot1)

@@ -50,8 +50,9 @@
 //                  b_i = |qdot1_i| / |(P g_i)_i|  (1 if that is ~0),
 //                c_i = 1 beyond q_l1 (b_i unbounded), else the sigmoid
 //                1 / (1 + exp(-12 (q_i - q_l0) / (q_l1 - q_l0) + 6)) with b_i
-//                clamped to 1: at full activation joint i's velocity becomes
-//                -lambda_tune |qdot1_i| away from the limit.
+//                clamped to 1: at full activation the term moves joint i by
+//                -(1 + lambda_tune) |qdot1_i| (P_ii > 0), so a joint the task
+//                drives towards its limit moves back at lambda_tune |qdot1_i|.
 // qdot = qdot1 + P (z + Jc^+ v2) + avoidance.
 //
 // Caps (the URDF's <limit velocity>, and an acceleration limit): qdot scaled

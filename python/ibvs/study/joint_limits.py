@@ -49,7 +49,7 @@ def random_starts(arm: str, starts: int, spread: float = 0.8, margin: float = 20
             break
         q = np.clip(case.goal + rng.uniform(-spread, spread, robot.dof), lo + 1e-3, hi - 1e-3)
         p = (np.linalg.inv(robot.camera(q)) @ P.T)[:3]
-        if np.any(p[2] < 0.1):
+        if np.any(p[2] < 0.1) or np.any(np.hypot(p[0] / p[2], p[1] / p[2]) > 1.0):  # far off the sensor anyway
             continue
         px = camera.project((p[:2] / p[2]).T)
         if np.all(np.isfinite(px)) and np.all(px >= margin) and np.all(px[:, 0] <= camera.width - margin) \
