@@ -534,6 +534,74 @@ void bench_robot(int n, double damping, const Options& o, bool near_singular = f
   });
 }
 
+/// The eye-to-hand JointMapping (robot_mapping.hpp eq. 5: the end effector's pose each frame) and
+/// SecondaryTask::update (secondary_task.hpp: large projector, joint-limit avoidance with about half the
+/// joints in their zones, a task- and a joint-space motion, speed and acceleration caps) over the same
+/// kind of random frames as bench_robot.
+void bench_robot_extras(int n, const Options& o) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<ibvs::JointMappingInput> in(Frames::count, ibvs::JointMappingInput(n));
+  std::vector<ibvs::SecondaryTaskInput> sin(Frames::count, ibvs::SecondaryTaskInput(n));
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    auto& x = in[k];
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < 6; ++i) x.jacobian(i, j) = g(rng);
+    for (int i = 0; i < 6; ++i) x.twist(i) = 0.1 * g(rng);
+    x.base_pose.topLeftCorner<3, 3>() = Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
+    x.base_pose.topRightCorner<3, 1>() << g(rng), g(rng), g(rng);
+    auto& y = sin[k];
+    Eigen::Matrix<double, 8, 6> L;
+    Eigen::Matrix<double, 8, 1> e;
+    for (int i = 0; i < 8; ++i) {
+      e(i) = 0.3 * g(rng);
+      for (int j = 0; j < 6; ++j) L(i, j) = g(rng);
+    }
+    y.task_gram = L.transpose() * L;
+    y.task_gradient = L.transpose() * e;
+    y.error_norm = e.norm();
+    for (int j = 0; j < n; ++j) {
+      y.q(j) = u(rng);
+      y.joints(j) = 0.1 * g(rng);
+      y.qdot_previous(j) = 0.1 * g(rng);
+    }
+    for (int i = 0; i < 6; ++i) y.twist(i) = 0.05 * g(rng);
+  }
+  ibvs::Pose bMc = ibvs::Pose::Identity();
+  bMc.topRightCorner<3, 1>() << 0.5, -0.2, 1.0;
+  ibvs::JointMappingOptions jo;
+  jo.mounting = ibvs::Mounting::eye_to_hand;
+  ibvs::JointMapping map(n, bMc, jo);
+  ibvs::JointMappingOutput out(n);
+  {
+    Result& r = add("robot", "JointMapping::update eye_to_hand", "joints", n, 6, "normal", 0.0, -1);
+    time_case(r, o, [&](long i) {
+      map.update(in[static_cast<std::size_t>(i & (Frames::count - 1))], out);
+      keep(out.qdot(0));
+    });
+  }
+  for (std::size_t k = 0; k < in.size(); ++k) {  // each frame's primary: the mapping's Jc and qdot
+    map.update(in[k], out);
+    sin[k].camera_jacobian = out.camera_jacobian;
+    sin[k].qdot = out.qdot;
+  }
+  ibvs::SecondaryTaskOptions so;
+  so.projector = ibvs::Projector::large;
+  so.q_min = ibvs::JointVector::Constant(n, -1.0);
+  so.q_max = ibvs::JointVector::Constant(n, 1.0);
+  so.max_joint_speed = ibvs::JointVector::Constant(n, 2.0);
+  so.max_joint_acceleration = ibvs::JointVector::Constant(n, 10.0);
+  so.period = 0.01;
+  ibvs::SecondaryTask task(n, so);
+  ibvs::SecondaryTaskOutput sout(n);
+  Result& r = add("robot", "SecondaryTask::update large + limits + caps", "joints", n, 6, "SVD", 0.0, -1);
+  time_case(r, o, [&](long i) {
+    task.update(sin[static_cast<std::size_t>(i & (Frames::count - 1))], sout);
+    keep(sout.qdot(0));
+  });
+}
+
 void bench_components(const std::string& kind, int n, const Options& o) {
   const Frames fr(n);
   const Layout layout = make_layout(kind, n);
@@ -1050,6 +1118,12 @@ int main(int argc, char** argv) {
         print_row(table, g_results.back());
         std::fflush(table);
       }
+    for (int n : {6, 7, 16}) {
+      bench_robot_extras(n, o);
+      print_row(table, g_results[g_results.size() - 2]);
+      print_row(table, g_results.back());
+      std::fflush(table);
+    }
   }
 
   if (has(o.sections, "camera")) {

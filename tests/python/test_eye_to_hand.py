@@ -180,3 +180,13 @@ def test_gantry_pickles_its_mounting():
     g = sim.cases.eye_to_hand("gantry", "general_motion").robot
     h = pickle.loads(pickle.dumps(g))
     assert h.mounting == "eye_to_hand" and np.array_equal(h.mount, g.mount)
+
+
+def test_urdf_robot_pickles_its_mounting(arm_case):
+    import pickle
+
+    r = pickle.loads(pickle.dumps(arm_case.robot))
+    assert r.mounting == "eye_to_hand" and np.array_equal(r.mount, arm_case.robot.mount)
+    assert np.array_equal(r.jacobian(arm_case.goal), arm_case.robot.jacobian(arm_case.goal))
+    assert arm_case.robot.fingerprint()["mounting"] == "eye_to_hand"
+    assert "mounting" not in sim.cases.arm_robot("panda").fingerprint()  # eye-in-hand sweep keys unchanged

@@ -14,6 +14,7 @@
 #include "ibvs/planar_pose.hpp"
 #include "ibvs/robot_mapping.hpp"
 #include "ibvs/se3.hpp"
+#include "ibvs/secondary_task.hpp"
 #include "ibvs/servo.hpp"
 #include "ibvs/task.hpp"
 #include "ibvs/version.hpp"
