@@ -247,12 +247,12 @@ def arm_general_motion(name: str = "panda", robot: Optional[_sim.Robot] = None, 
 
 
 # Eye-to-hand: the target (10 cm square) rides 10 cm beyond the flange, facing back along its axis
-# (end effector <- target); the camera is fixed in the world, ARM_DESIRED_DEPTH in front of it at the
-# goal joints, looking back at the tool. The paper's start offsets, as relative camera <- target motions
-# (the camera moved in its own frame from the goal; here the target moves the opposite way): its
-# x-translation (0.2 at 3 m depth, scaled to 0.5 m), its z-rotation of pi and the general motion of
-# arm_general_motion.
+# (end effector <- target, (t, r) of pose()); the camera is fixed in the world, ARM_DESIRED_DEPTH in
+# front of it at the goal joints, looking back at the tool.
 EYE_TO_HAND_TARGET = ((0.0, 0.0, 0.1), (np.pi, 0.0, 0.0))
+#: The starts of eye_to_hand(): motion name -> (t, r) of pose(), the start camera in the goal camera's frame
+#: relative to the target (the paper's offsets; the target moves the opposite way): its x-translation (0.2 at
+#: 3 m depth, scaled to 0.5 m), its z-rotation of pi and the general motion of arm_general_motion.
 EYE_TO_HAND_MOTIONS = {
     "x_translation": ((0.2 * ARM_DESIRED_DEPTH / 3.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
     "z_rotation": ((0.0, 0.0, 0.0), (0.0, 0.0, np.pi)),
