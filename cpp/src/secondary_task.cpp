@@ -34,6 +34,9 @@ double sigmoid(double x) noexcept { return 1.0 / (1.0 + std::exp(-12.0 * x + 6.0
 // Relative rank threshold on the eigenvalues of G = L^T L: sigma_j > 1e-6 sigma_max.
 constexpr double gram_rank_ratio = 1e-12;
 
+// |(P g_i)_i| below this: joint i has no room in the null space (b = 1, the term is ~0).
+constexpr double pivot_floor = 1e-9;
+
 }  // namespace
 
 SecondaryTaskInput::SecondaryTaskInput(int n)
@@ -204,7 +207,9 @@ Status SecondaryTask::update(const SecondaryTaskInput& in, SecondaryTaskOutput& 
       gi(i) = qi < l0_min ? -1.0 : 1.0;
       project(gi, pg);
       const double p = std::abs(pg(i));
-      double b = p >= 10.0 * std::numeric_limits<double>::epsilon() ? std::abs(in.qdot(i)) / p : 1.0;
+      // ViSP takes b = 1 below 10 eps; a projector's entries are O(1), so rounding of a projector with
+      // no room (P = 0 to ~1e-16) would pass that test and give an arbitrary correction: 1e-9 here.
+      double b = p >= pivot_floor ? std::abs(in.qdot(i)) / p : 1.0;
       double c = 1.0;  // zone beyond q_l1: full correction, b unbounded
       if (qi >= l1_min && qi <= l1_max) {  // between the thresholds: sigmoid, b <= 1
         b = std::min(b, 1.0);

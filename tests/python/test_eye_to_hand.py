@@ -190,3 +190,8 @@ def test_urdf_robot_pickles_its_mounting(arm_case):
     assert np.array_equal(r.jacobian(arm_case.goal), arm_case.robot.jacobian(arm_case.goal))
     assert arm_case.robot.fingerprint()["mounting"] == "eye_to_hand"
     assert "mounting" not in sim.cases.arm_robot("panda").fingerprint()  # eye-in-hand sweep keys unchanged
+
+
+def test_miscalibrated_robot_refuses_eye_to_hand(arm_case):
+    with pytest.raises(ValueError, match="mounting"):
+        sim.MiscalibratedRobot(arm_case.robot, np.eye(4))

@@ -47,7 +47,8 @@
 //                  q_l1_min = q_l0_min - rho rho1 Dq,  q_l1_max = q_l0_max + rho rho1 Dq;
 //                joint i beyond its q_l0 threshold adds
 //                  -c_i (1 + lambda_tune) b_i P g_i,  g_i = -e_i below, +e_i above,
-//                  b_i = |qdot1_i| / |(P g_i)_i|  (1 if that is ~0),
+//                  b_i = |qdot1_i| / |(P g_i)_i|  (1 if |(P g_i)_i| < 1e-9: no room;
+//                  ViSP's floor is 10 eps, below the rounding of a projector),
 //                c_i = 1 beyond q_l1 (b_i unbounded), else the sigmoid
 //                1 / (1 + exp(-12 (q_i - q_l0) / (q_l1 - q_l0) + 6)) with b_i
 //                clamped to 1: at full activation the term moves joint i by

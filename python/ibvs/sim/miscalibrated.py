@@ -37,6 +37,9 @@ class MiscalibratedRobot(_sim.Robot):
             raise TypeError(f"robot must be an ibvs.sim.Robot (a UrdfRobot, a Gantry...), got {type(robot).__name__}")
         if isinstance(robot, MiscalibratedRobot):
             robot = robot.robot  # the believed mount replaces the earlier one
+        if robot.mounting != "eye_in_hand":
+            raise ValueError("robot must carry its camera (mounting 'eye_in_hand'): MiscalibratedRobot models a wrong eMc, "
+                             f"got mounting {robot.mounting!r}")
         eMc_hat = as_pose_stack([controller_mount], "controller_mount")[0]
         super().__init__(robot.q_min, robot.q_max, robot.qdot_max, eMc_hat, "end_effector", robot.damping,
                          robot.singular_region)
