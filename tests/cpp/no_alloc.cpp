@@ -362,13 +362,16 @@ void mounting_and_secondary_allocate_nothing() {
     robot->avoid_joint_limits = true;
     robot->secondary.projector = Projector::large;
     robot->qddot_max = JointVector::Constant(7, 5.0);
-    const JointVector qs = stacked_start(), qg = stacked_goal();
+    JointVector qs = stacked_start();
+    const JointVector qg = stacked_goal();
     Target target = gantry_target(robot->g);
     if (eye_to_hand) {  // the camera fixed where the goal put it, the target on the flange
       const Pose T_we = robot->g.end_effector(gantry_goal());
       robot->mount = T_we * robot->mount;
       robot->mapping.mounting = Mounting::eye_to_hand;
       target.pose = se3_inverse(T_we) * target.pose;
+      qs = qg;  // a start the fixed camera sees: the goal moved a little
+      qs.head<6>() += (Joints() << 0.02, -0.02, 0.01, 0.05, -0.05, 0.05).finished();
     }
     Episode e(Servo(Layout::stacked(4), so), CameraModel::afma6(), target, robot, o);
     const Pose goal = e.robot()->camera(qg);

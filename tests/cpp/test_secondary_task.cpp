@@ -193,10 +193,13 @@ void joint_limit_avoidance_matches_visp() {
     }
     worst = std::max(worst, (q2 - Eigen::VectorXd(out.avoidance)).cwiseAbs().maxCoeff() / std::max(1.0, q2.norm()));
     active += out.active;
-    // Joint 0, beyond q_l1, with room in the null space (P_00 > 0): it moves away from its upper limit.
-    if (P(0, 0) > 1e-6) {
+    // Joint 0 alone beyond q_l1, with room in the null space (P_00 > 0): it moves away from its upper limit.
+    if (P(0, 0) > 1e-6 && std::abs(in.qdot(0)) > 1e-9) {
       ++room;
-      if (std::abs(in.qdot(0)) > 1e-9 && out.qdot(0) < 0.0) ++away;
+      in.q.setZero();  // mid-range
+      in.q(0) = 2.0 - 0.01;
+      task.update(in, out);
+      if (out.active == 1 && out.qdot(0) < 0.0) ++away;
     }
   }
   ibvs_test::report(worst < 1e-7, "joint-limit avoidance = ViSP's loop with the explicit projector", __FILE__,
