@@ -155,3 +155,18 @@ def test_avoidance_turns_a_joint_limit_into_convergence():
     avoided = sim.run(servo, case.camera, case.target, case.start, case.goal, robot=robot, duration=15.0,
                       depth="pose", tolerance=1e-5)
     assert avoided.status.outcome == "converged", avoided
+
+
+def test_sweep_avoidance_turns_joint_limits_into_convergence():
+    """ibvs.study.joint_limits on 8 random Panda starts (docs/arms.md has 100 per arm): stacked IBVS ends at a joint
+    limit from some; with the large projector's avoidance none does and every such run converges."""
+    from ibvs.study import joint_limits as jl
+
+    rows = jl.sweep(("panda",), starts=8, laws=("stacked",), settings=("off", "large"))
+    by = {(r.setting, r.start): r.outcome for r in rows}
+    limited = [k for (s, k), o in by.items() if s == "off" and o == "joint_limit"]
+    assert len(limited) >= 2
+    assert all(by[("large", k)] == "converged" for k in limited)
+    assert all(o != "joint_limit" for (s, _), o in by.items() if s == "large")
+    table = jl.format_shares(jl.shares(rows))
+    assert "| panda | stacked | large | 8/8 (100 %)" in table
