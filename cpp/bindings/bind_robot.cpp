@@ -136,7 +136,9 @@ struct PySecondaryTask {
       if (!em.allFinite()) throw py::value_error("error must be finite");
       in.task_gram = Lm.transpose() * Lm;
       in.task_gradient = Lm.transpose() * em;
-      in.error_norm = em.norm();
+      in.error_norm = em.stableNorm();
+      if (!in.task_gram.allFinite() || !in.task_gradient.allFinite() || !std::isfinite(in.error_norm))
+        throw py::value_error("interaction and error too large: L^T L or L^T e overflows");
     }
     if (q.is_none() && task.avoids_joint_limits())
       throw py::value_error("q (the joint positions) is required when avoiding joint limits (q_min, q_max given)");

@@ -17,7 +17,9 @@ from ibvs import sim
 
 from test_properties_more import ENTRY, refused_by_name
 
-MODERATE = st.floats(-3.0, 3.0)
+# Moderate entries: zero or 1e-6 <= |x| <= 3 (a subnormal Jacobian has singular values whose inverse overflows:
+# refused, as documented, for eye-in-hand and eye-to-hand alike).
+MODERATE = st.floats(-3.0, 3.0).map(lambda x: 0.0 if abs(x) < 1e-6 else x)
 ANGLE = st.floats(-4.0, 4.0)
 
 
