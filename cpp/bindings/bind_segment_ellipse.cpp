@@ -49,8 +49,8 @@ std::array<double, 6> moments_arg(py::handle obj) {
   }
   const CArray a = as_array(obj, "moments");
   if (a.ndim() != 1 || a.shape(0) != 6)
-    throw py::value_error("moments must be cv2.moments' dict or 6 values (m00, m10, m01, mu20, mu11, mu02), got shape " +
-                          shape_of(a));
+    throw py::value_error(
+        "moments must be cv2.moments' dict or 6 values (m00, m10, m01, mu20, mu11, mu02), got shape " + shape_of(a));
   for (std::size_t i = 0; i < 6; ++i) m[i] = a.data()[i];
   return m;
 }
@@ -93,8 +93,7 @@ depths outside [1e-6, 1e6] m, a centre beyond 10 (normalised), non-finite values
           py::arg("P1"), py::arg("P2"),
           "The measurement of the segment between two 3-D points of the camera frame (in front of the camera).");
 
-  py::class_<EllipseFeature, Feature, std::shared_ptr<EllipseFeature>>(m, "EllipseFeature",
-                                                                       R"(An image ellipse or planar blob by its moments (ViSP's vpFeatureEllipse).
+  py::class_<EllipseFeature, Feature, std::shared_ptr<EllipseFeature>>(m, "EllipseFeature", R"(An image ellipse or planar blob by its moments (ViSP's vpFeatureEllipse).
 
 Features (xg, yg, n20, n11, n02): the centroid and the centred second-order moments divided by the
 area (normalised coordinates; a disc of radius R has n20 = n02 = R^2 / 4). Measurement (8): xg, yg,
@@ -119,7 +118,8 @@ five rows have rank 3).)")
           "measure_moments",
           [](py::handle moments, py::handle plane, py::handle camera) {
             const CArray p = as_array(plane, "plane");
-            if (p.ndim() != 1 || p.shape(0) != 3) throw py::value_error("plane must be (A, B, C) of 1/Z = A x + B y + C");
+            if (p.ndim() != 1 || p.shape(0) != 3)
+              throw py::value_error("plane must be (A, B, C) of 1/Z = A x + B y + C");
             if (!camera.is_none() && !py::isinstance<CameraModel>(camera))
               throw py::type_error("camera must be an ibvs.CameraModel or None, got " + type_name(camera));
             const CameraModel cam = camera.is_none() ? CameraModel() : camera.cast<CameraModel>();

@@ -1,5 +1,5 @@
 // Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
-// damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
+// damped_pinv / singular_values, se3_exp and Task blocks (segment, ellipse): arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
 //  * every function either throws std::invalid_argument or answers with finite numbers;
@@ -208,13 +208,106 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
+
+// Task blocks of the segment and the ellipse (features/segment.hpp, ellipse.hpp): their
+// measurement functions either throw std::invalid_argument or give a measurement check()
+// accepts; a Task of such blocks (beside a point or not) refuses in update() exactly what
+// validate() refuses, and answers the rest with finite outputs. Measurements come from random
+// geometry, then some entries are overwritten with hostile doubles.
+void fuzz_segment_ellipse(Bytes& b) {
+  const auto accepted = [](const Feature& f, const double* m) {
+    int entry = 0;
+    return f.check(m, entry) == nullptr;
+  };
+  const auto vec3 = [&b] {
+    return Eigen::Vector3d(b.coordinate(), b.coordinate(), b.byte() < 230 ? b.depth() : b.real());
+  };
+  try {
+    const auto s = SegmentFeature::project(vec3(), vec3());
+    CHECK(accepted(SegmentFeature(), s.data()));
+  } catch (const std::invalid_argument&) {
+  }
+  try {
+    const double r = b.byte() < 200 ? b.byte() / 400.0 : b.real();
+    const auto e = EllipseFeature::project_circle(vec3(), vec3(), r);
+    CHECK(accepted(EllipseFeature(), e.data()));
+  } catch (const std::invalid_argument&) {
+  }
+  try {
+    std::array<double, 6> mo;
+    for (double& x : mo) x = b.byte() < 200 ? b.coordinate() : b.real();
+    const auto e = EllipseFeature::measure_moments(mo, b.coordinate(), b.coordinate(), b.depth());
+    CHECK(accepted(EllipseFeature(), e.data()));
+  } catch (const std::invalid_argument&) {
+  }
+
+  Task task(b.byte() < 128 ? Layout::none() : Layout::cartesian(1));
+  const int blocks = b.small(1, 3);
+  for (int k = 0; k < blocks; ++k) {
+    const int kind = b.small(0, 2);
+    if (kind == 2) task.add(EllipseFeature(), b.byte() < 200 ? 1.0 : 0.1 + b.byte());
+    else task.add(SegmentFeature(kind == 0));
+  }
+  if (b.byte() > 200) task.set_dof({true, true, true, b.byte() < 128, true, b.byte() < 128});
+  ServoOptions o;
+  o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
+  o.jacobian = static_cast<InteractionMatrix>(b.small(0, 2));
+  Servo servo(task, o);
+  ServoInput in(task);
+  ServoOutput out(task);
+  if (task.has_points()) {
+    in.uv << b.coordinate(), b.coordinate();
+    in.uv_desired << b.coordinate(), b.coordinate();
+  }
+  // Most inputs: geometry in front of the camera (segments between two points, circles facing
+  // it), a few entries then overwritten; the others: any geometry, any entry hostile.
+  const bool tame = b.byte() < 200;
+  const auto in_view = [&b] {
+    const double z = 0.2 + b.byte() / 40.0;
+    return Eigen::Vector3d((b.byte() - 127.5) / 400.0 * z, (b.byte() - 127.5) / 400.0 * z, z);
+  };
+  for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
+    for (int k = 0; k < task.n_features(); ++k) {
+      double* mk = m->data() + task.offset(k);
+      std::array<double, 8> e{};
+      try {
+        if (task.feature(k).size() == 6) {
+          const auto s = tame ? SegmentFeature::project(in_view(), in_view()) : SegmentFeature::project(vec3(), vec3());
+          std::copy(s.begin(), s.end(), e.begin());
+        } else if (tame) {
+          const Eigen::Vector3d c = in_view(), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
+          e = EllipseFeature::project_circle(c, n, c.z() * (0.005 + b.byte() / 1000.0));
+        } else {
+          e = EllipseFeature::project_circle(vec3(), vec3(), b.byte() / 200.0);
+        }
+      } catch (const std::invalid_argument&) {
+        for (double& x : e) x = b.real();
+      }
+      std::copy(e.begin(), e.begin() + task.feature(k).size(), mk);
+      while (b.byte() > (tame ? 240 : 150))
+        mk[b.small(0, task.feature(k).size() - 1)] = b.byte() < 128 ? b.real() : b.coordinate();
+    }
+  }
+  bool valid = true;
+  try {
+    servo.validate(in);
+  } catch (const std::invalid_argument&) {
+    valid = false;
+  }
+  const Status st = servo.update(in, out);
+  ibvs_test::report(valid == (st != Status::invalid_input), "segment / ellipse: validate() throws iff update() refuses",
+                    __FILE__, __LINE__, task.describe());
+  check_output(out, st, true, "Servo::update (segment / ellipse blocks)");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 3) {
+  switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
+    case 3: fuzz_segment_ellipse(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

@@ -57,7 +57,8 @@ void segment_jacobian() {
     int checked = 0;
     double worst_fd = 0.0, worst_visp = 0.0;
     for (int c = 0; c < ibvs_test::cases; ++c) {
-      const Eigen::Vector3d P1 = ibvs_test::point(u(rng), u(rng), z(rng)), P2 = ibvs_test::point(u(rng), u(rng), z(rng));
+      const Eigen::Vector3d P1 = ibvs_test::point(u(rng), u(rng), z(rng));
+      const Eigen::Vector3d P2 = ibvs_test::point(u(rng), u(rng), z(rng));
       const std::array<double, 6> m = SegmentFeature::project(P1, P2);
       if (m[2] < 0.02) continue;  // a short segment: its 1/l rows are steep for differences of step 1e-6
       int entry = 0;

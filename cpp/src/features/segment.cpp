@@ -54,7 +54,8 @@ const char* SegmentFeature::check(const double* m, int& entry) const noexcept {
     if (!detail::valid_coordinate(m[entry])) return "the centre is beyond the normalised-coordinate limit";
   entry = 2;
   if (!(m[2] >= min_segment_length)) return "the segment's length is zero (or below min_segment_length)";
-  if (m[2] > 4.0 * max_normalized_coordinate) return "the segment's length is beyond 4 x the normalised-coordinate limit";
+  if (m[2] > 4.0 * max_normalized_coordinate)
+    return "the segment's length is beyond 4 x the normalised-coordinate limit";
   entry = 3;
   if (std::abs(m[3]) > 2.0 * pi) return "alpha must be within [-2 pi, 2 pi]";
   for (entry = 4; entry < 6; ++entry)
