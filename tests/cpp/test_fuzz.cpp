@@ -1,5 +1,6 @@
-// Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
-// damped_pinv / singular_values, se3_exp and Task blocks (segment, ellipse): arbitrary bytes become a layout,
+// Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
+// validate, update), PartitionedServo,
+// damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
 //  * every function either throws std::invalid_argument or answers with finite numbers;
@@ -15,6 +16,10 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/task.hpp"
+#include "ibvs/features/ellipse.hpp"
+#include "ibvs/features/line.hpp"
+#include "ibvs/features/segment.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -209,95 +214,136 @@ void fuzz_pinv_exp(Bytes& b) {
 }
 
 
-// Task blocks of the segment and the ellipse (features/segment.hpp, ellipse.hpp): their
-// measurement functions either throw std::invalid_argument or give a measurement check()
-// accepts; a Task of such blocks (beside a point or not) refuses in update() exactly what
-// validate() refuses, and answers the rest with finite outputs. Measurements come from random
-// geometry, then some entries are overwritten with hostile doubles.
-void fuzz_segment_ellipse(Bytes& b) {
-  const auto accepted = [](const Feature& f, const double* m) {
+// ---- Tasks of feature blocks --------------------------------------------------
+// Each kind the task fuzzer draws from: a block and a measurement of it, mostly
+// plausible (so that the accepted path is reached), sometimes hostile (every
+// entry can be any double). A new feature kind adds one entry to fuzz_kinds.
+struct FuzzKind {
+  std::unique_ptr<Feature> (*make)(Bytes&);
+  void (*measure)(Bytes&, double* m);  // Feature::size() doubles
+};
+
+void line_measurement(Bytes& b, double* m) {
+  m[0] = b.coordinate();
+  m[1] = b.byte() < 200 ? (b.byte() - 127.5) / 20.0 : b.real();
+  for (int i = 2; i < 4; ++i) m[i] = b.byte() < 200 ? b.coordinate() : b.real();
+  m[4] = 1.0 / b.depth();
+}
+
+
+// The segment and the ellipse (features/segment.hpp, ellipse.hpp): measurements from their own
+// measurement functions, on geometry in view or on any input (what they return must then pass
+// check(); what they cannot measure they refuse with std::invalid_argument), then entries
+// sometimes overwritten with hostile doubles.
+Eigen::Vector3d in_view(Bytes& b) {
+  const double z = 0.2 + b.byte() / 40.0;
+  return {(b.byte() - 127.5) / 400.0 * z, (b.byte() - 127.5) / 400.0 * z, z};
+}
+
+template <std::size_t N>
+void measured(Bytes& b, const Feature& f, std::array<double, N> (*from)(Bytes&), double* m) {
+  std::array<double, N> v;
+  try {
+    v = from(b);
     int entry = 0;
-    return f.check(m, entry) == nullptr;
-  };
-  const auto vec3 = [&b] {
-    return Eigen::Vector3d(b.coordinate(), b.coordinate(), b.byte() < 230 ? b.depth() : b.real());
-  };
-  try {
-    const auto s = SegmentFeature::project(vec3(), vec3());
-    CHECK(accepted(SegmentFeature(), s.data()));
+    ibvs_test::report(f.check(v.data(), entry) == nullptr, "a measurement function's result is accepted", __FILE__,
+                      __LINE__, f.describe());
   } catch (const std::invalid_argument&) {
+    for (double& x : v) x = b.real();
   }
-  try {
-    const double r = b.byte() < 200 ? b.byte() / 400.0 : b.real();
-    const auto e = EllipseFeature::project_circle(vec3(), vec3(), r);
-    CHECK(accepted(EllipseFeature(), e.data()));
-  } catch (const std::invalid_argument&) {
-  }
-  try {
+  std::copy(v.begin(), v.end(), m);
+  while (b.byte() > 230) m[b.small(0, static_cast<int>(N) - 1)] = b.byte() < 128 ? b.real() : b.coordinate();
+}
+
+void segment_measurement(Bytes& b, double* m) {
+  measured<6>(b, SegmentFeature(), [](Bytes& b) {
+    if (b.byte() < 200) return SegmentFeature::project(in_view(b), in_view(b));
+    return SegmentFeature::measure(b.coordinate(), b.coordinate(), b.depth(), b.coordinate(), b.coordinate(),
+                                   b.depth());
+  }, m);
+}
+
+void ellipse_measurement(Bytes& b, double* m) {
+  measured<8>(b, EllipseFeature(), [](Bytes& b) {
+    const int how = b.small(0, 3);
+    if (how <= 1) {  // a circle in view, facing the camera
+      const Eigen::Vector3d c = in_view(b), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
+      return EllipseFeature::project_circle(c, n, c.z() * (0.005 + b.byte() / 1000.0));
+    }
+    if (how == 2)
+      return EllipseFeature::project_circle({b.coordinate(), b.coordinate(), b.depth()},
+                                            {b.coordinate(), b.coordinate(), b.real()}, b.byte() < 128 ? b.real() : 0.1);
     std::array<double, 6> mo;
     for (double& x : mo) x = b.byte() < 200 ? b.coordinate() : b.real();
-    const auto e = EllipseFeature::measure_moments(mo, b.coordinate(), b.coordinate(), b.depth());
-    CHECK(accepted(EllipseFeature(), e.data()));
-  } catch (const std::invalid_argument&) {
-  }
+    return EllipseFeature::measure_moments(mo, b.coordinate(), b.coordinate(), 1.0 / b.depth());
+  }, m);
+}
 
-  Task task(b.byte() < 128 ? Layout::none() : Layout::cartesian(1));
-  const int blocks = b.small(1, 3);
-  for (int k = 0; k < blocks; ++k) {
-    const int kind = b.small(0, 2);
-    if (kind == 2) task.add(EllipseFeature(), b.byte() < 200 ? 1.0 : 0.1 + b.byte());
-    else task.add(SegmentFeature(kind == 0));
+const FuzzKind fuzz_kinds[] = {
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<SegmentFeature>(b.byte() < 160); },
+     segment_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<EllipseFeature>(); }, ellipse_measurement},
+};
+
+void fuzz_task(Bytes& b) {
+  std::optional<Task> task;
+  std::vector<const FuzzKind*> kind_of;  // the kind of each block, to draw its measurements
+  try {
+    const int n = b.small(0, 4);
+    task.emplace(n == 0 ? Task() : Task(b.byte() < 128 ? Layout::cartesian(n) : Layout::polar(n)));
+    const int blocks = b.small(0, 3);
+    constexpr int kinds = static_cast<int>(sizeof fuzz_kinds / sizeof fuzz_kinds[0]);
+    for (int k = 0; k < blocks; ++k) {
+      const FuzzKind& kind = fuzz_kinds[b.small(0, kinds - 1)];
+      task->add(*kind.make(b), b.byte() < 200 ? 1.0 + b.byte() / 64.0 : b.real());
+      kind_of.push_back(&kind);
+    }
+    if (n > 0 && b.byte() > 200) {
+      std::vector<double> w(static_cast<std::size_t>(n));
+      for (double& x : w) x = b.byte() < 200 ? 0.5 + b.byte() / 100.0 : b.real();
+      task->set_point_weights(w);
+    }
+    if (b.byte() > 180) {
+      Dof dof{};
+      for (bool& d : dof) d = b.byte() < 160;
+      task->set_dof(dof);
+    }
+  } catch (const std::invalid_argument&) {
+    return;
   }
-  if (b.byte() > 200) task.set_dof({true, true, true, b.byte() < 128, true, b.byte() < 128});
   ServoOptions o;
   o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
-  o.jacobian = static_cast<InteractionMatrix>(b.small(0, 2));
-  Servo servo(task, o);
-  ServoInput in(task);
-  ServoOutput out(task);
-  if (task.has_points()) {
-    in.uv << b.coordinate(), b.coordinate();
-    in.uv_desired << b.coordinate(), b.coordinate();
-  }
-  // Most inputs: geometry in front of the camera (segments between two points, circles facing
-  // it), a few entries then overwritten; the others: any geometry, any entry hostile.
-  const bool tame = b.byte() < 200;
-  const auto in_view = [&b] {
-    const double z = 0.2 + b.byte() / 40.0;
-    return Eigen::Vector3d((b.byte() - 127.5) / 400.0 * z, (b.byte() - 127.5) / 400.0 * z, z);
-  };
-  for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
-    for (int k = 0; k < task.n_features(); ++k) {
-      double* mk = m->data() + task.offset(k);
-      std::array<double, 8> e{};
-      try {
-        if (task.feature(k).size() == 6) {
-          const auto s = tame ? SegmentFeature::project(in_view(), in_view()) : SegmentFeature::project(vec3(), vec3());
-          std::copy(s.begin(), s.end(), e.begin());
-        } else if (tame) {
-          const Eigen::Vector3d c = in_view(), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
-          e = EllipseFeature::project_circle(c, n, c.z() * (0.005 + b.byte() / 1000.0));
-        } else {
-          e = EllipseFeature::project_circle(vec3(), vec3(), b.byte() / 200.0);
-        }
-      } catch (const std::invalid_argument&) {
-        for (double& x : e) x = b.real();
-      }
-      std::copy(e.begin(), e.begin() + task.feature(k).size(), mk);
-      while (b.byte() > (tame ? 240 : 150))
-        mk[b.small(0, task.feature(k).size() - 1)] = b.byte() < 128 ? b.real() : b.coordinate();
-    }
-  }
-  bool valid = true;
+  o.diagnostics = b.byte() < 200;
+  if (b.byte() > 200) o.max_linear_speed = b.real();
+  std::optional<Servo> servo;
   try {
-    servo.validate(in);
+    servo.emplace(*task, o);
   } catch (const std::invalid_argument&) {
-    valid = false;
+    return;  // no block (an empty Task) or bad options: refused at construction
   }
-  const Status st = servo.update(in, out);
-  ibvs_test::report(valid == (st != Status::invalid_input), "segment / ellipse: validate() throws iff update() refuses",
-                    __FILE__, __LINE__, task.describe());
-  check_output(out, st, true, "Servo::update (segment / ellipse blocks)");
+  ServoInput in(*task);
+  ServoOutput out(*task);
+  for (int frame = 0; frame < 3; ++frame) {
+    for (Eigen::Index i = 0; i < in.uv.size(); ++i) in.uv.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
+    for (Eigen::Index i = 0; i < in.depth_desired.size(); ++i) in.depth_desired(i) = b.depth();
+    for (int k = 0; k < task->n_features(); ++k) {
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements.data() + task->offset(k));
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements_desired.data() + task->offset(k));
+    }
+    bool valid = true;
+    try {
+      servo->validate(in);
+    } catch (const std::invalid_argument&) {
+      valid = false;
+    }
+    const Status st = servo->update(in, out);
+    ibvs_test::report(valid == (st != Status::invalid_input), "task: validate() throws iff update() refuses",
+                      __FILE__, __LINE__, task->describe());
+    check_output(out, st, o.diagnostics, "Servo(Task)::update");
+  }
 }
 
 }  // namespace
@@ -307,7 +353,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
-    case 3: fuzz_segment_ellipse(b); break;
+    case 2: fuzz_task(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;
