@@ -27,11 +27,15 @@ inline double wrap_difference(double d, double centre) noexcept {
 // angle this frame (polar blocks that do not fall back, cylindrical blocks with
 // both radii > 0), from the points' directions: (cos, sin)(theta - theta*) =
 // (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
+// Masked: the blocks of the points marked valid only.
+template <bool Masked>
 AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
                                const Eigen::Ref<const Points>& uvd, const PointMask* valid) noexcept {
   AngleResultant sum;
   for (const Block& b : layout.blocks()) {
-    if (b.representation == Representation::cartesian || (valid && !(*valid)(b.point))) continue;
+    if (b.representation == Representation::cartesian) continue;
+    if constexpr (Masked)
+      if (!(*valid)(b.point)) continue;
     const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
     const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
     if (b.representation == Representation::polar
@@ -50,6 +54,23 @@ inline std::uint64_t mix(std::uint64_t x) noexcept {
   x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
   x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
   return x ^ (x >> 31);
+}
+
+// The rows of the lost points' blocks zeroed (out of the law); returns a hash of the lost points.
+template <class Jac, class Vec>
+[[gnu::noinline]] std::uint64_t drop_lost(const Layout& layout, const PointMask& valid, Jac& J, Vec& e) noexcept {
+  Eigen::Index row = 0;
+  for (const Block& b : layout.blocks()) {
+    if (!valid(b.point)) {
+      J.template middleRows<2>(row).setZero();
+      e.template segment<2>(row).setZero();
+    }
+    row += 2;
+  }
+  std::uint64_t key = 0;
+  for (Eigen::Index i = 0; i < valid.size(); ++i)
+    if (!valid(i)) key ^= mix(~static_cast<std::uint64_t>(i));
+  return key;
 }
 
 // Workspace for one row count: the assembled J and e, and the solver (see
@@ -99,12 +120,15 @@ struct Work {
     put(row, which, cur, des);
   }
 
-  // Fills J and e for this frame; returns the number of polar fallbacks and xors into `key` a
-  // hash of the rows that fell back (the smooth law's switch test). Angle differences are
+  // The blocks that fell back to Cartesian since the smooth law last read it (one bit per block,
+  // modulo 64): a change of it is a change of law.
+  std::uint64_t key = 0;
+
+  // Fills J and e for this frame; returns the number of polar fallbacks. Angle differences are
   // wrapped about `centre` (NaN: per point, eq. 13).
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
-               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre, std::uint64_t& key) noexcept {
+               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre) noexcept {
     int fallbacks = 0;
     Eigen::Index row = 0;
     for (const Block& b : layout.blocks()) {
@@ -119,7 +143,7 @@ struct Work {
       if (polar && (polar_falls_back(r2, o.polar_min_radius) || polar_falls_back(rd2, o.polar_min_radius))) {
         polar = false;
         ++fallbacks;
-        key ^= mix(static_cast<std::uint64_t>(row));
+        key ^= std::uint64_t{1} << ((row >> 1) & 63);  // the member above: one bit per block
       }
       if (polar) {
         // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
@@ -350,6 +374,7 @@ void Servo::set_options(const ServoOptions& options) {
       options.polar_min_radius != options_.polar_min_radius || options.cartesian_near_goal != options_.cartesian_near_goal)
     smoother_.switch_law();
   options_ = options;
+  extras_ = options.smoothing.enabled() || options.cartesian_near_goal > 0.0 || options.stop_time > 0.0;
   near_options_ = options;
   near_options_.polar_min_radius = std::numeric_limits<double>::infinity();
 }
@@ -446,7 +471,7 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
                      const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                      const Eigen::Ref<const Eigen::VectorXd>& measurements,
                      const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, ServoOutput& out) noexcept {
-  return step(uv, depth, uv_desired, depth_desired, measurements, measurements_desired, nullptr, out);
+  return step(uv, depth, uv_desired, depth_desired, measurements, measurements_desired, nullptr, 0, out);
 }
 
 Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
@@ -454,20 +479,34 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
                      const Eigen::Ref<const Eigen::VectorXd>& measurements,
                      const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask& valid,
                      ServoOutput& out) noexcept {
-  if (valid.size() != task_.n_points()) {
+  const int n = task_.n_points();
+  // All valid: the plain step (bit for bit). Otherwise the lost points are put at their goal
+  // (finite, zero error) in the kernel's copies, and their rows are zeroed after assembly.
+  if (valid.size() == n && valid.all())
+    return step(uv, depth, uv_desired, depth_desired, measurements, measurements_desired, nullptr, 0, out);
+  Kernel& kernel = *kernel_;
+  if (valid.size() != n || uv.cols() != n || depth.size() != n || uv_desired.cols() != n) {
     smoother_.note(Twist::Zero());
     return detail::refuse(out);
   }
-  // All valid: the plain step (bit for bit). Otherwise the lost points are put at their goal
-  // (finite, zero error) in the kernel's copies, and their rows are zeroed after assembly.
-  return step(uv, depth, uv_desired, depth_desired, measurements, measurements_desired,
-              valid.all() ? nullptr : &valid, out);
+  kernel.uv_valid = uv;
+  kernel.z_valid = depth;
+  int lost = 0;
+  for (int i = 0; i < n; ++i)
+    if (!valid(i)) {
+      kernel.uv_valid.col(i) = uv_desired.col(i);
+      kernel.z_valid(i) = 1.0;
+      ++lost;
+    }
+  return step(kernel.uv_valid, kernel.z_valid, uv_desired, depth_desired, measurements, measurements_desired, &valid,
+              lost, out);
 }
 
-Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const Eigen::VectorXd>& depth_in,
+// The step; valid: null (every point), or the points measured (lost of them are not).
+Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                    const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                    const Eigen::Ref<const Eigen::VectorXd>& measurements,
-                   const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask* valid,
+                   const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask* valid, int lost,
                    ServoOutput& out) noexcept {
   out.pixel_error = std::numeric_limits<double>::quiet_NaN();  // set by update_pixels() after this
   const Layout& layout = task_.points();
@@ -475,20 +514,6 @@ Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const
   const Eigen::Index m = task_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;
   Kernel& kernel = *kernel_;
-  int lost = 0;
-  if (valid && uv_in.cols() == n && depth_in.size() == n && uv_desired.cols() == n) {
-    kernel.uv_valid = uv_in;
-    kernel.z_valid = depth_in;
-    for (int i = 0; i < n; ++i)
-      if (!(*valid)(i)) {
-        kernel.uv_valid.col(i) = uv_desired.col(i);
-        kernel.z_valid(i) = 1.0;
-        ++lost;
-      }
-  }
-  const Eigen::Ref<const Points> uv = lost ? Eigen::Ref<const Points>(kernel.uv_valid) : uv_in;
-  const Eigen::Ref<const Eigen::VectorXd> depth =
-      lost ? Eigen::Ref<const Eigen::VectorXd>(kernel.z_valid) : depth_in;
   // Exactly what validate() refuses (tests/cpp/test_fuzz.cpp checks that the two agree).
   const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
                   out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
@@ -499,17 +524,8 @@ Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const
     smoother_.note(Twist::Zero());  // the refusal's zero twist: a later law starts from rest
     return detail::refuse(out);
   }
-  if (!lost) valid = nullptr;
-  const Smoothing& sm = options_.smoothing;
-  const bool smooth = sm.enabled();
-  std::uint64_t key = 0;  // the Cartesian / polar choices and the lost points, for the smooth law
   // The automatic law switch: every polar block Cartesian near the goal (with hysteresis).
-  if (options_.cartesian_near_goal > 0.0) {
-    double far = 0.0;
-    for (int i = 0; i < n; ++i)
-      if (!valid || (*valid)(i)) far = std::max(far, (uv.col(i) - uv_desired.col(i)).norm());
-    near_goal_ = far < options_.cartesian_near_goal * (near_goal_ ? near_goal_hysteresis : 1.0);
-  }
+  if (extras_ && options_.cartesian_near_goal > 0.0) switch_near_goal(uv, uv_desired, valid);
   const ServoOptions& o = near_goal_ ? near_options_ : options_;
   return std::visit(
       [&](auto& w) noexcept {
@@ -519,10 +535,11 @@ Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const
         // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
         double centre = std::numeric_limits<double>::quiet_NaN();
         if (o.angle_wrap == AngleWrap::consistent) {
-          const AngleResultant sum = angle_resultant(layout, o.polar_min_radius, uv, uv_desired, valid);
+          const AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
+                                           : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
-        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre, key);
+        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
         const bool plain = task_.points_only();
         if (!plain) {
           w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
@@ -532,16 +549,7 @@ Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const
         out.lost_points = lost;
         bool enough = true;
         if (valid) {  // the lost points' rows out of the law; enough rows left for the task's DOF?
-          Eigen::Index row = 0;
-          for (const Block& b : layout.blocks()) {
-            if (!(*valid)(b.point)) {
-              w.J.template middleRows<2>(row).setZero();
-              w.e.template segment<2>(row).setZero();
-            }
-            row += 2;
-          }
-          for (int i = 0; i < n; ++i)
-            if (!(*valid)(i)) key ^= mix(~static_cast<std::uint64_t>(i));
+          w.key ^= drop_lost(layout, *valid, w.J, w.e);
           enough = 2 * (n - lost) + (m - task_.point_rows()) >= task_.n_dof();
         }
         out.error = w.e.head(m);
@@ -550,7 +558,11 @@ Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const
         const AdaptiveGain& ag = o.adaptive_gain;
         out.gain = ag.enabled() ? ag(out.error_norm) : o.gain;
         out.law_switched = out.acceleration_limited = false;
-        if (!enough) return stop(out);
+        if (!enough) {
+          pattern_ = w.key;
+          w.key = 0;
+          return stop(out);
+        }
         stopping_ = false;
         Twist x;
         detail::Spectrum spectrum;
@@ -562,22 +574,42 @@ Status Servo::step(const Eigen::Ref<const Points>& uv_in, const Eigen::Ref<const
         out.saturation_scale = saturation_scale(out.velocity, o.max_linear_speed, o.max_angular_speed);
         out.saturated = out.saturation_scale < 1.0;
         if (out.saturated) out.velocity *= out.saturation_scale;
-        if (smooth) {
-          if (key != pattern_) smoother_.switch_law();
-          out.law_switched = smoother_.switching() && sm.decay_rate > 0.0;
-          out.acceleration_limited = smoother_.apply(sm, o.max_linear_speed, o.max_angular_speed, out.velocity);
-        } else {
-          smoother_.note(out.velocity);
+        if (extras_) {  // smoothing, the near-goal switch or a stop ramp: the twist's history matters
+          smooth(w.key, out);
+          w.key = 0;
         }
-        pattern_ = key;
         return out.status = spectrum.singular ? Status::singular : Status::ok;
         }
       },
       kernel.work);
 }
 
+// The automatic law switch: every polar block Cartesian near the goal (with hysteresis).
+[[gnu::noinline]] void Servo::switch_near_goal(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Points>& uv_desired,
+                             const PointMask* valid) noexcept {
+  double far = 0.0;
+  for (Eigen::Index i = 0; i < uv.cols(); ++i)
+    if (!valid || (*valid)(i)) far = std::max(far, (uv.col(i) - uv_desired.col(i)).norm());
+  near_goal_ = far < options_.cartesian_near_goal * (near_goal_ ? near_goal_hysteresis : 1.0);
+}
+
+// The smooth law (smoothing.hpp) on the step's twist; key: this step's Cartesian / polar choices
+// and lost points (a change of them is a change of law).
+[[gnu::noinline]] void Servo::smooth(std::uint64_t key, ServoOutput& out) noexcept {
+  const ServoOptions& o = options_;
+  const Smoothing& sm = o.smoothing;
+  if (sm.enabled()) {
+    if (key != pattern_) smoother_.switch_law();
+    out.law_switched = smoother_.switching() && sm.decay_rate > 0.0;
+    out.acceleration_limited = smoother_.apply(sm, o.max_linear_speed, o.max_angular_speed, out.velocity);
+  } else {
+    smoother_.note(out.velocity);
+  }
+  pattern_ = key;
+}
+
 // Too few valid points: the twist ramps linearly to zero from the one commanded when the stop began.
-Status Servo::stop(ServoOutput& out) noexcept {
+[[gnu::noinline]] Status Servo::stop(ServoOutput& out) noexcept {
   if (!stopping_) {
     stopping_ = true;
     stop_elapsed_ = 0.0;

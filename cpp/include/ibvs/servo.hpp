@@ -197,6 +197,17 @@ struct ServoOutput {
 /// have bounded rows and never fall back: their error is
 /// (r - r*, r wrap(theta - theta*)) and their rows the derivative of it (see
 /// cylindrical_jacobian); a point at r = 0 borrows the other point's direction.
+///
+/// Smooth starts and switches (options.smoothing, smoothing.hpp): the twist above is the law's;
+/// with a decay rate mu the commanded one is the continuous law of Mansard & Chaumette 2007
+/// (eq. 17), then scaled to the acceleration limits. Transitions: the first update, reset(),
+/// switch_law(), a set_options() that changes the law, a change of the Cartesian / polar choice
+/// of a block (polar_min_radius, cartesian_near_goal) or of the valid points. Turning smoothing
+/// on mid-run starts from the last twist it saw (give the current one with reset(twist)).
+///
+/// Lost points (ServoInput::valid): their blocks' rows are zeroed (weighted least squares with
+/// weight 0: exactly the law of the other points); below 2 x valid points + feature rows =
+/// Task::n_dof() the step is Status::features_lost and the twist ramps to zero over stop_time.
 class Servo {
  public:
   /// A task: the points of a Layout (a Layout converts to one), feature blocks, weights, DOF.
@@ -282,14 +293,18 @@ class Servo {
   Status step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
               const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
               const Eigen::Ref<const Eigen::VectorXd>& measurements,
-              const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask* valid,
+              const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask* valid, int lost,
               ServoOutput& out) noexcept;
   Status stop(ServoOutput& out) noexcept;
+  void switch_near_goal(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Points>& uv_desired,
+                        const PointMask* valid) noexcept;
+  void smooth(std::uint64_t key, ServoOutput& out) noexcept;
   Task task_;
   ServoOptions options_;
   ServoOptions near_options_;  // options_ with every polar block Cartesian (cartesian_near_goal)
   TwistSmoother smoother_;     // smoothing.hpp: the last twist and the continuous law's offset
   std::uint64_t pattern_ = 0;  // the last step's Cartesian / polar choices and valid points (a hash)
+  bool extras_ = false;        // smoothing, cartesian_near_goal or stop_time on (else the plain law)
   bool near_goal_ = false;     // cartesian_near_goal: within the switch distance
   bool stopping_ = false;      // Status::features_lost: ramping the twist to zero
   double stop_elapsed_ = 0.0;

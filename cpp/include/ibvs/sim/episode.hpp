@@ -17,7 +17,8 @@
 //      paper's ViSP camera): by default those plus Gaussian noise (seeded;
 //      ProjectionSensor), or e.g. dots found in a rendered image
 //      (ibvs.vision); a point the sensor lost ends the episode
-//      (lost_feature). Written into a latency ring buffer; the controller
+//      (lost_feature), or with keep_lost is left out by the servo
+//      (ServoInput::valid) until too few remain and its twist has ramped to 0. Written into a latency ring buffer; the controller
 //      reads the one taken `latency` frames earlier (before t = 0 the camera
 //      sat at its start);
 //   4. the controller's points: the delayed measurement normalised by the
