@@ -64,10 +64,12 @@ class TwistSmoother {
   bool apply(const Smoothing& s, double max_linear, double max_angular, Twist& v) noexcept {
     if (s.decay_rate > 0.0) {
       if (pending_) {
-        offset_ = last_ - v;  // eq. (17) at t = t_s
+        offset_ = last_ - v;  // eq. (17) at t = t_s: exactly the twist the camera has
         elapsed_ = 0.0;
+        v = last_;
+      } else {
+        v += offset_ * std::exp(-s.decay_rate * elapsed_);
       }
-      v += offset_ * std::exp(-s.decay_rate * elapsed_);
       elapsed_ += s.period;
       const double k = saturation_scale(v, max_linear, max_angular);
       if (k < 1.0) v *= k;
