@@ -73,6 +73,24 @@ template <class Jac, class Vec>
   return key;
 }
 
+// The polar blocks computed as Cartesian this step, one bit per block (modulo 64): for the smooth
+// law, to which a change of them is a change of law (computed only when it is on, so that the
+// plain step's assembly is untouched).
+std::uint64_t fallback_pattern(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
+                               const Eigen::Ref<const Points>& uvd) noexcept {
+  std::uint64_t bits = 0;
+  int k = 0;
+  for (const Block& b : layout.blocks()) {
+    if (b.representation == Representation::polar) {
+      const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+      if (polar_falls_back(u * u + v * v, polar_min_radius) || polar_falls_back(ud * ud + vd * vd, polar_min_radius))
+        bits ^= std::uint64_t{1} << (k & 63);
+    }
+    ++k;
+  }
+  return bits;
+}
+
 // Workspace for one row count: the assembled J and e, and the solver (see
 // solve.hpp for the sizes: Rows = 8 or 16, or Dynamic bounded by MaxRows).
 template <int Rows, int MaxRows = Rows>
@@ -120,8 +138,7 @@ struct Work {
     put(row, which, cur, des);
   }
 
-  // The blocks that fell back to Cartesian since the smooth law last read it (one bit per block,
-  // modulo 64): a change of it is a change of law.
+  // A hash of the lost points of this step (drop_lost), for the smooth law.
   std::uint64_t key = 0;
 
   // Fills J and e for this frame; returns the number of polar fallbacks. Angle differences are
@@ -143,7 +160,6 @@ struct Work {
       if (polar && (polar_falls_back(r2, o.polar_min_radius) || polar_falls_back(rd2, o.polar_min_radius))) {
         polar = false;
         ++fallbacks;
-        key ^= std::uint64_t{1} << ((row >> 1) & 63);  // the member above: one bit per block
       }
       if (polar) {
         // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
@@ -575,7 +591,7 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
         out.saturated = out.saturation_scale < 1.0;
         if (out.saturated) out.velocity *= out.saturation_scale;
         if (extras_) {  // smoothing, the near-goal switch or a stop ramp: the twist's history matters
-          smooth(w.key, out);
+          smooth(w.key ^ fallback_pattern(layout, o.polar_min_radius, uv, uv_desired), out);
           w.key = 0;
         }
         return out.status = spectrum.singular ? Status::singular : Status::ok;
