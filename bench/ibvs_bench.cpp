@@ -410,6 +410,29 @@ void bench_update(const char* section, const char* name, const std::string& kind
   });
 }
 
+/// The default update with the smooth law (decay 4/s, acceleration limits) and, with `lost`,
+/// one point of the layout marked lost every frame (ServoInput::valid, the masked step).
+void bench_smooth(const std::string& kind, int n, const Options& o, const Frames& fr, bool lost) {
+  const Layout layout = make_layout(kind, n);
+  ibvs::ServoOptions so = servo_options(o.gain, 0.0, true);
+  so.smoothing.decay_rate = 4.0;
+  so.smoothing.max_linear_acceleration = 1.0;
+  so.smoothing.max_angular_acceleration = 2.0;
+  so.smoothing.period = 1e-3;
+  ibvs::Servo servo(layout, so);
+  ibvs::ServoOutput out(layout);
+  ibvs::PointMask valid = ibvs::PointMask::Constant(n, true);
+  if (lost) valid(n - 1) = false;
+  const Eigen::VectorXd none;
+  Result& r = add("components", lost ? "Servo::update smooth, 1 point lost" : "Servo::update smooth (mu, accel.)",
+                  kind, n, layout.rows(), "auto", 0.0, true);
+  time_case(r, o, [&](long i) {
+    const int k = static_cast<int>(i & (Frames::count - 1));
+    servo.update(fr.uv[k], fr.z[k], fr.uvd[k], fr.zd[k], none, none, valid, out);
+    keep(out.velocity);
+  });
+}
+
 template <int Rows>
 void bench_solve(const std::string& kind, int n, const Options& o, const Frames& fr) {
   const Layout layout = make_layout(kind, n);
@@ -637,6 +660,8 @@ void bench_components(const std::string& kind, int n, const Options& o) {
                  ibvs::AngleWrap::per_point);
   bench_update("components", "Servo::update damped + diagnostics", kind, n, o.damping, true, o, fr);
   bench_update("components", "Servo::update default, exact diagnostics", kind, n, 0.0, true, o, fr, true);
+  bench_smooth(kind, n, o, fr, false);
+  if (n >= 4) bench_smooth(kind, n, o, fr, true);
   if (n == 4) {
     check_floor_agrees(kind, o, fr);
     switch (kind_of(kind)) {

@@ -127,7 +127,38 @@ std::string number(double x) { return py::str(py::float_(x)); }
 // Python's Servo.update: numpy arguments, validate() (raises), then the real-time update()
 // into an output buffer no earlier result holds (py_servo.hpp: returned without a copy).
 std::shared_ptr<ServoOutput> PyServo::update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj,
-                                             py::handle zd_obj, py::handle m_obj, py::handle md_obj) {
+                                             py::handle zd_obj, py::handle m_obj, py::handle md_obj,
+                                             py::handle valid_obj) {
+  if (!valid_obj.is_none()) {  // lost points: the masked path (smoothing.hpp's neighbour, servo.hpp)
+    const Eigen::Index n = servo.layout().n_points();
+    const py::array a = py::array::ensure(valid_obj);
+    if (!a || a.dtype().kind() != 'b')
+      throw py::type_error("valid must be an array of bools (True = the point is measured), got " +
+                           type_name(valid_obj));
+    if (a.ndim() != 1 || a.shape(0) != n)
+      throw py::value_error("valid must have shape (" + std::to_string(n) + ",), got " + shape_of(a));
+    const auto b = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(a);
+    valid.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) valid(i) = b.data()[i];
+    const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
+    const auto uv = points(uv_a, "uv");
+    const auto uvd = points(uvd_a, "uv_desired");
+    depths(depth_obj, "depth", n, z);
+    if (zd_obj.is_none()) {
+      if (servo.options().jacobian != InteractionMatrix::current)
+        throw py::value_error(std::string("depth_desired is required when jacobian='") +
+                              interaction_name(servo.options().jacobian) + "'");
+      zd = Eigen::VectorXd::Ones(n);
+    } else {
+      depths(zd_obj, "depth_desired", n, zd);
+    }
+    py_task::measurements(servo.task(), m_obj, "measurements", m);
+    py_task::measurements(servo.task(), md_obj, "measurements_desired", md);
+    servo.validate(uv, z, uvd, zd, m, md, valid);
+    std::shared_ptr<ServoOutput> out = outputs.next();
+    servo.update(uv, z, uvd, zd, m, md, valid, *out);
+    return out;
+  }
   const CArray uv_a = as_array(uv_obj, "uv"), uvd_a = as_array(uvd_obj, "uv_desired");
   const auto uv = points(uv_a, "uv");
   const auto uvd = points(uvd_a, "uv_desired");
@@ -176,7 +207,9 @@ void bind_core(py::module_& m) {
   py::enum_<Status>(m, "Status", "Outcome of Servo.update().")
       .value("ok", Status::ok)
       .value("singular", Status::singular, "J numerically rank-deficient; twist is the finite min-norm/damped solution")
-      .value("invalid_input", Status::invalid_input, "non-finite input or depth <= 0 (never returned in Python: it raises)");
+      .value("invalid_input", Status::invalid_input, "non-finite input or depth <= 0 (never returned in Python: it raises)")
+      .value("features_lost", Status::features_lost,
+             "too few valid points for the task's DOF (update(valid=...)): the twist ramps to zero over stop_time");
 
   py::class_<Layout>(m, "Layout", R"(Which feature blocks are stacked, in which row order.
 
@@ -376,6 +409,12 @@ referenced; later updates never change them (they write into buffers no result h
       .def_readonly("saturated", &ServoOutput::saturated, "True when the twist was scaled down to the speed limits.")
       .def_readonly("saturation_scale", &ServoOutput::saturation_scale,
                     "The uniform factor in (0, 1] applied to the twist (1 when not saturated).")
+      .def_readonly("lost_points", &ServoOutput::lost_points, "Points marked invalid this step (update(valid=...)).")
+      .def_readonly("law_switched", &ServoOutput::law_switched,
+                    "The continuous law (decay_rate > 0) started a transition this step: start, reset, a change of\n"
+                    "law, of the Cartesian / polar choices or of the valid points.")
+      .def_readonly("acceleration_limited", &ServoOutput::acceleration_limited,
+                    "The change of twist was scaled down to the acceleration limits this step.")
       .def_readonly("pixel_error", &ServoOutput::pixel_error,
                     "update_pixels: largest distance (pixels) between a point and its desired point; NaN after update.")
       .def("__repr__", [](const ServoOutput& o) {
@@ -404,11 +443,23 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
   angle_wrap  "consistent" (default): the theta differences of one frame are wrapped as one
             rotation about their circular mean (see feature_error), the mean kept on the
             previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
-            forgets it); "per_point": eq. (13) point by point, no memory)")
+            forgets it); "per_point": eq. (13) point by point, no memory
+  decay_rate  mu >= 0 (1/s): the continuous law of Mansard & Chaumette 2007 (eq. 17),
+            v = v_law(t) + (v(t_s-) - v_law(t_s)) exp(-mu (t - t_s)), from the first update
+            (from rest), reset(twist) and every change of law, of the Cartesian / polar choices
+            or of the valid points; 0 = off (docs/control-law.md)
+  max_linear_acceleration, max_angular_acceleration  > 0 (m/s^2, rad/s^2): the change of twist
+            per period scaled by one factor (its direction kept); inf = no limit
+  period    the control period (s, > 0) the above and stop_time need; ibvs.sim.run uses 1/fps
+  cartesian_near_goal  > 0 (normalised units): every polar block is Cartesian while every
+            valid point lies within this distance of its goal (polar again beyond 1.5 times it)
+  stop_time  >= 0 (s): with too few valid points the twist ramps to zero over this time)")
       .def(py::init([](const Task& layout, py::handle gain, py::handle damping, const std::string& jac,
                        py::handle polar_min_radius, py::handle diagnostics, py::handle max_linear_speed,
                        py::handle max_angular_speed, py::handle camera, py::handle angle_wrap,
-                       py::handle exact_diagnostics) {
+                       py::handle exact_diagnostics, py::handle decay_rate, py::handle max_linear_acceleration,
+                       py::handle max_angular_acceleration, py::handle period, py::handle cartesian_near_goal,
+                       py::handle stop_time) {
              ServoOptions o;
              o.angle_wrap = angle_wrap_arg(angle_wrap);
              set_gain(o, gain);
@@ -419,6 +470,12 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
              o.exact_diagnostics = boolean(exact_diagnostics, "exact_diagnostics");
              o.max_linear_speed = real(max_linear_speed, "max_linear_speed");
              o.max_angular_speed = real(max_angular_speed, "max_angular_speed");
+             o.smoothing.decay_rate = real(decay_rate, "decay_rate");
+             o.smoothing.max_linear_acceleration = real(max_linear_acceleration, "max_linear_acceleration");
+             o.smoothing.max_angular_acceleration = real(max_angular_acceleration, "max_angular_acceleration");
+             o.smoothing.period = real(period, "period");
+             o.cartesian_near_goal = real(cartesian_near_goal, "cartesian_near_goal");
+             o.stop_time = real(stop_time, "stop_time");
              PyServo s(layout, o);
              py_servo::set_camera(s.servo, camera);
              return s;
@@ -426,7 +483,10 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
            py::arg("layout"), py::arg("gain"), py::arg("damping") = 0.0, py::arg("jacobian") = "current",
            py::arg("polar_min_radius") = default_polar_min_radius, py::arg("diagnostics") = true,
            py::arg("max_linear_speed") = no_limit, py::arg("max_angular_speed") = no_limit,
-           py::arg("camera") = py::none(), py::arg("angle_wrap") = "consistent", py::arg("exact_diagnostics") = false)
+           py::arg("camera") = py::none(), py::arg("angle_wrap") = "consistent", py::arg("exact_diagnostics") = false,
+           py::arg("decay_rate") = 0.0, py::arg("max_linear_acceleration") = no_limit,
+           py::arg("max_angular_acceleration") = no_limit, py::arg("period") = 0.0,
+           py::arg("cartesian_near_goal") = 0.0, py::arg("stop_time") = 0.0)
       .def_static(
           "automatic_hybrid",
           [](py::handle n, py::handle gain, py::handle switch_radius, py::handle damping, const std::string& jac,
@@ -458,7 +518,7 @@ Servo(Layout.polar(n_points), gain, polar_min_radius=switch_radius, ...); ServoR
 counts the points computed as Cartesian.)")
       .def("update", &PyServo::update, py::arg("uv"), py::arg("depth"), py::arg("uv_desired"),
            py::arg("depth_desired") = py::none(), py::arg("measurements") = py::none(),
-           py::arg("measurements_desired") = py::none(),
+           py::arg("measurements_desired") = py::none(), py::arg("valid") = py::none(),
            R"(One control step.
 
 uv, uv_desired (N, 2): current and desired points, normalised coordinates, |u|, |v| <= 10
@@ -467,6 +527,9 @@ depth, depth_desired: metres, in [1e-6, 1e6], scalar or (N,); depth_desired is n
 jacobian="desired" or "mean" (and must hold N depths whenever given).
 measurements, measurements_desired: a Task's feature blocks (None for points only): one array per
 block (its kind's measurement) or all of them concatenated (Task.measurement_size values).
+valid: None (every point measured) or N bools, False for a point a tracker lost: its uv and depth
+are not read (NaN allowed), its rows are left out; with too few valid points (2 x valid < the
+task's DOF) the status is Status.features_lost and the twist ramps to zero over stop_time.
 Returns a ServoResult (a snapshot: see its docstring). Bad input raises ValueError/TypeError.)")
       .def("update_pixels", &PyServo::update_pixels, py::arg("pixels"), py::arg("depth"), py::arg("pixels_desired"),
            py::arg("depth_desired") = py::none(),
@@ -519,8 +582,29 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
             s.servo.set_options(o);
           },
           "'consistent' or 'per_point' (see the class doc); setting it also forgets the previous frame.")
-      .def("reset", [](PyServo& s) { s.servo.reset(); },
-           "Forget the previous frame's angle-wrap branch (call it when a new servoing task starts).")
+      .def(
+          "reset",
+          [](PyServo& s, py::handle twist) {
+            Twist v = Twist::Zero();
+            if (!twist.is_none()) {
+              const CArray a = as_array(twist, "twist");
+              const auto x = vector(a, "twist");
+              if (x.size() != 6 || !x.allFinite()) throw py::value_error("twist must be 6 finite numbers");
+              v = x;
+            }
+            s.servo.reset(v);
+          },
+          py::arg("twist") = py::none(),
+          "Forget the previous frame's angle-wrap branch (call it when a new servoing task starts); with\n"
+          "decay_rate > 0 the next update starts from `twist` (the camera's current twist; None: at rest).")
+      .def_property_readonly("decay_rate", [](const PyServo& s) { return s.servo.options().smoothing.decay_rate; })
+      .def_property_readonly("max_linear_acceleration",
+                             [](const PyServo& s) { return s.servo.options().smoothing.max_linear_acceleration; })
+      .def_property_readonly("max_angular_acceleration",
+                             [](const PyServo& s) { return s.servo.options().smoothing.max_angular_acceleration; })
+      .def_property_readonly("period", [](const PyServo& s) { return s.servo.options().smoothing.period; })
+      .def_property_readonly("cartesian_near_goal", [](const PyServo& s) { return s.servo.options().cartesian_near_goal; })
+      .def_property_readonly("stop_time", [](const PyServo& s) { return s.servo.options().stop_time; })
       .def_property_readonly("jacobian_mode", [](const PyServo& s) { return interaction_name(s.servo.options().jacobian); })
       .def_property_readonly("polar_min_radius", [](const PyServo& s) { return s.servo.options().polar_min_radius; })
       .def("__repr__", [](const PyServo& s) {

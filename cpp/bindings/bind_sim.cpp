@@ -530,7 +530,7 @@ it stops the episode and is raised by run().)")
           py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double tolerance_px, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain,
-          double standoff_ratio, py::handle sensor) {
+          double standoff_ratio, py::handle sensor, bool keep_lost) {
         EpisodeOptions o;
         o.duration = duration;
         o.noise = noise;
@@ -546,6 +546,7 @@ it stops the episode and is raised by run().)")
         o.boundary_margin = boundary_margin;
         o.boundary_gain = boundary_gain;
         o.standoff_ratio = standoff_ratio;
+        o.keep_lost = keep_lost;
         std::shared_ptr<Sensor> py_sensor_held;
         PySensor* py_sensor = nullptr;
         if (!sensor.is_none()) {
@@ -614,6 +615,6 @@ it stops the episode and is raised by run().)")
       py::arg("tolerance_px") = 0.0, py::arg("max_depth_ratio") = 10.0,
       py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
       py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1, py::arg("standoff_ratio") = 0.05,
-      py::arg("sensor") = py::none(),
+      py::arg("sensor") = py::none(), py::arg("keep_lost") = false,
       "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
 }

@@ -52,7 +52,9 @@ struct PyServo {
   /// validate() then update() on numpy arguments (bind_core.cpp); m_obj, md_obj: the feature
   /// blocks' measurements (bind_task.cpp: None, a flat array or one array per block).
   std::shared_ptr<ServoOutput> update(py::handle uv_obj, py::handle depth_obj, py::handle uvd_obj, py::handle zd_obj,
-                                      py::handle m_obj = py::none(), py::handle md_obj = py::none());
+                                      py::handle m_obj = py::none(), py::handle md_obj = py::none(),
+                                      py::handle valid_obj = py::none());
+  PointMask valid;  // update(valid=...)
   /// validate_pixels() then update_pixels() (bind_camera.cpp).
   std::shared_ptr<ServoOutput> update_pixels(py::handle px_obj, py::handle depth_obj, py::handle pxd_obj,
                                              py::handle zd_obj);

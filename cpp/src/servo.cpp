@@ -27,11 +27,15 @@ inline double wrap_difference(double d, double centre) noexcept {
 // angle this frame (polar blocks that do not fall back, cylindrical blocks with
 // both radii > 0), from the points' directions: (cos, sin)(theta - theta*) =
 // (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
+// Masked: the blocks of the points marked valid only.
+template <bool Masked>
 AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
-                               const Eigen::Ref<const Points>& uvd) noexcept {
+                               const Eigen::Ref<const Points>& uvd, const PointMask* valid) noexcept {
   AngleResultant sum;
   for (const Block& b : layout.blocks()) {
     if (b.representation == Representation::cartesian) continue;
+    if constexpr (Masked)
+      if (!(*valid)(b.point)) continue;
     const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
     const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
     if (b.representation == Representation::polar
@@ -42,6 +46,49 @@ AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, co
     if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
   }
   return sum;
+}
+
+// A 64-bit hash of a row or point index (splitmix64's finaliser): sets of them are xored.
+inline std::uint64_t mix(std::uint64_t x) noexcept {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// The rows of the lost points' blocks zeroed (out of the law); returns a hash of the lost points.
+template <class Jac, class Vec>
+[[gnu::noinline]] std::uint64_t drop_lost(const Layout& layout, const PointMask& valid, Jac& J, Vec& e) noexcept {
+  Eigen::Index row = 0;
+  for (const Block& b : layout.blocks()) {
+    if (!valid(b.point)) {
+      J.template middleRows<2>(row).setZero();
+      e.template segment<2>(row).setZero();
+    }
+    row += 2;
+  }
+  std::uint64_t key = 0;
+  for (Eigen::Index i = 0; i < valid.size(); ++i)
+    if (!valid(i)) key ^= mix(~static_cast<std::uint64_t>(i));
+  return key;
+}
+
+// The polar blocks computed as Cartesian this step, one bit per block (modulo 64): for the smooth
+// law, to which a change of them is a change of law (computed only when it is on, so that the
+// plain step's assembly is untouched).
+std::uint64_t fallback_pattern(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
+                               const Eigen::Ref<const Points>& uvd) noexcept {
+  std::uint64_t bits = 0;
+  int k = 0;
+  for (const Block& b : layout.blocks()) {
+    if (b.representation == Representation::polar) {
+      const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+      if (polar_falls_back(u * u + v * v, polar_min_radius) || polar_falls_back(ud * ud + vd * vd, polar_min_radius))
+        bits ^= std::uint64_t{1} << (k & 63);
+    }
+    ++k;
+  }
+  return bits;
 }
 
 // Workspace for one row count: the assembled J and e, and the solver (see
@@ -91,8 +138,11 @@ struct Work {
     put(row, which, cur, des);
   }
 
-  // Fills J and e for this frame; returns the number of polar fallbacks. Angle
-  // differences are wrapped about `centre` (NaN: per point, eq. 13).
+  // A hash of the lost points of this step (drop_lost), for the smooth law.
+  std::uint64_t key = 0;
+
+  // Fills J and e for this frame; returns the number of polar fallbacks. Angle differences are
+  // wrapped about `centre` (NaN: per point, eq. 13).
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
                const Eigen::Ref<const Eigen::VectorXd>& zd, double centre) noexcept {
@@ -192,6 +242,8 @@ struct Servo::Kernel {
 
   Eigen::VectorXd aligned;  // the current measurements, aligned to the goal's (feature blocks)
   MatrixX6 spare;           // a feature block's rows at the goal (InteractionMatrix::mean)
+  Points uv_valid;          // uv and depth with the lost points at their goal (ServoInput::valid)
+  Eigen::VectorXd z_valid;
 
   explicit Kernel(const Task& task) {
     const int rows = task.rows();
@@ -207,6 +259,8 @@ struct Servo::Kernel {
     for (int k = 0; k < task.n_features(); ++k) largest = std::max(largest, task.feature(k).rows());
     aligned = Eigen::VectorXd::Zero(task.measurement_size());
     spare = MatrixX6::Zero(largest, 6);
+    uv_valid = Points::Zero(2, task.n_points());
+    z_valid = Eigen::VectorXd::Ones(task.n_points());
   }
 };
 
@@ -216,7 +270,8 @@ ServoInput::ServoInput(const Task& task)
       uv_desired(Points::Zero(2, task.n_points())),
       depth_desired(Eigen::VectorXd::Ones(task.n_points())),
       measurements(Eigen::VectorXd::Zero(task.measurement_size())),
-      measurements_desired(Eigen::VectorXd::Zero(task.measurement_size())) {}
+      measurements_desired(Eigen::VectorXd::Zero(task.measurement_size())),
+      valid(PointMask::Constant(task.n_points(), true)) {}
 
 ServoOutput::ServoOutput(const Task& task)
     : error(Eigen::VectorXd::Zero(task.rows())), jacobian(MatrixX6::Zero(task.rows(), 6)) {}
@@ -310,15 +365,43 @@ void Servo::validate(const ServoOptions& o) {
       o.jacobian != InteractionMatrix::mean)
     throw std::invalid_argument("ibvs: jacobian must be current, desired or mean");
   detail::check_angle_wrap(o.angle_wrap);
+  const Smoothing& sm = o.smoothing;
+  detail::check_nonnegative(sm.decay_rate, "smoothing.decay_rate");
+  if (!(sm.max_linear_acceleration > 0.0))
+    throw std::invalid_argument("ibvs: smoothing.max_linear_acceleration must be > 0 (inf = no limit), got " +
+                                detail::number(sm.max_linear_acceleration));
+  if (!(sm.max_angular_acceleration > 0.0))
+    throw std::invalid_argument("ibvs: smoothing.max_angular_acceleration must be > 0 (inf = no limit), got " +
+                                detail::number(sm.max_angular_acceleration));
+  detail::check_nonnegative(sm.period, "smoothing.period");
+  detail::check_nonnegative(o.cartesian_near_goal, "cartesian_near_goal");
+  detail::check_nonnegative(o.stop_time, "stop_time");
+  if ((sm.enabled() || o.stop_time > 0.0) && !(sm.period > 0.0))
+    throw std::invalid_argument(
+        "ibvs: smoothing.period must be > 0 (the control period, s) with a decay_rate, an acceleration limit or a "
+        "stop_time");
 }
 
 void Servo::set_options(const ServoOptions& options) {
   validate(options);
-  if (options.angle_wrap != options_.angle_wrap) reset();
+  if (options.angle_wrap != options_.angle_wrap) wrap_centre_ = std::numeric_limits<double>::quiet_NaN();
+  // A change of the law (not of a gain or a limit, which may be scheduled every frame): a transition.
+  if (options.angle_wrap != options_.angle_wrap || options.jacobian != options_.jacobian ||
+      options.polar_min_radius != options_.polar_min_radius || options.cartesian_near_goal != options_.cartesian_near_goal)
+    smoother_.switch_law();
   options_ = options;
+  extras_ = options.smoothing.enabled() || options.cartesian_near_goal > 0.0 || options.stop_time > 0.0;
+  near_options_ = options;
+  near_options_.polar_min_radius = std::numeric_limits<double>::infinity();
 }
 
-void Servo::reset() noexcept { wrap_centre_ = std::numeric_limits<double>::quiet_NaN(); }
+void Servo::reset(const Twist& current) noexcept {
+  wrap_centre_ = std::numeric_limits<double>::quiet_NaN();
+  smoother_.switch_law(current);
+  near_goal_ = stopping_ = false;
+}
+
+void Servo::switch_law(const Twist& from) noexcept { smoother_.switch_law(from); }
 
 void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
                      const Eigen::Ref<const Points>& uv_desired,
@@ -352,6 +435,30 @@ void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
   }
 }
 
+void Servo::validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                     const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask& valid) const {
+  const int n = task_.n_points();
+  if (valid.size() != n)
+    throw std::invalid_argument("ibvs: valid must hold " + std::to_string(n) + " flags for this task, got " +
+                                std::to_string(valid.size()));
+  if (valid.all()) return validate(uv, depth, uv_desired, depth_desired, measurements, measurements_desired);
+  // The sizes first (these throw their size messages), before the valid columns are read.
+  if (uv.cols() != n) detail::check_points(uv, "uv", n);
+  if (depth.size() != n) detail::check_depth(depth, "depth", n);
+  // The valid points' values, then everything else as above with the lost points at their goal.
+  Points uv_v = uv;
+  Eigen::VectorXd z_v = depth;
+  for (int i = 0; i < n; ++i)
+    if (!valid(i)) {
+      if (uv_desired.cols() == n && uv_desired.col(i).allFinite()) uv_v.col(i) = uv_desired.col(i);
+      else uv_v.col(i).setZero();
+      z_v(i) = 1.0;
+    }
+  validate(uv_v, z_v, uv_desired, depth_desired, measurements, measurements_desired);
+}
+
 Servo automatic_hybrid(int n_points, ServoOptions options, double switch_radius) {
   detail::check_nonnegative(switch_radius, "switch_radius");
   options.polar_min_radius = switch_radius;
@@ -380,19 +487,62 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
                      const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                      const Eigen::Ref<const Eigen::VectorXd>& measurements,
                      const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, ServoOutput& out) noexcept {
+  return step(uv, depth, uv_desired, depth_desired, measurements, measurements_desired, nullptr, 0, out);
+}
+
+Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                     const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                     const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask& valid,
+                     ServoOutput& out) noexcept {
+  const int n = task_.n_points();
+  // All valid: the plain step (bit for bit). Otherwise the lost points are put at their goal
+  // (finite, zero error) in the kernel's copies, and their rows are zeroed after assembly.
+  if (valid.size() == n && valid.all())
+    return step(uv, depth, uv_desired, depth_desired, measurements, measurements_desired, nullptr, 0, out);
+  Kernel& kernel = *kernel_;
+  if (valid.size() != n || uv.cols() != n || depth.size() != n || uv_desired.cols() != n) {
+    smoother_.note(Twist::Zero());
+    return detail::refuse(out);
+  }
+  kernel.uv_valid = uv;
+  kernel.z_valid = depth;
+  int lost = 0;
+  for (int i = 0; i < n; ++i)
+    if (!valid(i)) {
+      kernel.uv_valid.col(i) = uv_desired.col(i);
+      kernel.z_valid(i) = 1.0;
+      ++lost;
+    }
+  return step(kernel.uv_valid, kernel.z_valid, uv_desired, depth_desired, measurements, measurements_desired, &valid,
+              lost, out);
+}
+
+// The step; valid: null (every point), or the points measured (lost of them are not).
+Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                   const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                   const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                   const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask* valid, int lost,
+                   ServoOutput& out) noexcept {
   out.pixel_error = std::numeric_limits<double>::quiet_NaN();  // set by update_pixels() after this
   const Layout& layout = task_.points();
   const int n = layout.n_points();
   const Eigen::Index m = task_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;
+  Kernel& kernel = *kernel_;
   // Exactly what validate() refuses (tests/cpp/test_fuzz.cpp checks that the two agree).
   const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
                   out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
                   detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
                   (!uses_zd || detail::valid_depths(depth_desired)) && valid_measurements(task_, measurements) &&
                   valid_measurements(task_, measurements_desired);
-  if (!ok) return detail::refuse(out);
-  Kernel& kernel = *kernel_;
+  if (!ok) {
+    smoother_.note(Twist::Zero());  // the refusal's zero twist: a later law starts from rest
+    return detail::refuse(out);
+  }
+  // The automatic law switch: every polar block Cartesian near the goal (with hysteresis).
+  if (extras_ && options_.cartesian_near_goal > 0.0) switch_near_goal(uv, uv_desired, valid);
+  const ServoOptions& o = near_goal_ ? near_options_ : options_;
   return std::visit(
       [&](auto& w) noexcept {
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
@@ -400,36 +550,96 @@ Status Servo::update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const 
         } else {
         // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
         double centre = std::numeric_limits<double>::quiet_NaN();
-        if (options_.angle_wrap == AngleWrap::consistent) {
-          const AngleResultant sum = angle_resultant(layout, options_.polar_min_radius, uv, uv_desired);
+        if (o.angle_wrap == AngleWrap::consistent) {
+          const AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
+                                           : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
-        out.polar_fallbacks = w.assemble(layout, options_, uv, depth, uv_desired, depth_desired, centre);
+        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
         const bool plain = task_.points_only();
         if (!plain) {
-          w.assemble_features(task_, options_.jacobian, measurements.data(), measurements_desired.data(),
+          w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
                               kernel.aligned.data(), kernel.spare);
           w.weigh(task_);
         }
-        Twist x;
-        detail::Spectrum spectrum;
-        w.solve(options_, m, x, spectrum, plain || task_.dof() == all_dof ? nullptr : &task_.dof());
-        if (spectrum.known) out.set_singular_values(spectrum.smin, spectrum.smax);
-        else if (options_.diagnostics) out.set_gram(w.solver.N0);  // computed when read
-        else out.clear_singular_values();
+        out.lost_points = lost;
+        bool enough = true;
+        if (valid) {  // the lost points' rows out of the law; enough rows left for the task's DOF?
+          w.key ^= drop_lost(layout, *valid, w.J, w.e);
+          enough = 2 * (n - lost) + (m - task_.point_rows()) >= task_.n_dof();
+        }
         out.error = w.e.head(m);
         out.error_norm = out.error.norm();
         out.jacobian = w.J.topRows(m);
-        const AdaptiveGain& ag = options_.adaptive_gain;
-        out.gain = ag.enabled() ? ag(out.error_norm) : options_.gain;
+        const AdaptiveGain& ag = o.adaptive_gain;
+        out.gain = ag.enabled() ? ag(out.error_norm) : o.gain;
+        out.law_switched = out.acceleration_limited = false;
+        if (!enough) {
+          pattern_ = w.key;
+          w.key = 0;
+          return stop(out);
+        }
+        stopping_ = false;
+        Twist x;
+        detail::Spectrum spectrum;
+        w.solve(o, m, x, spectrum, plain || task_.dof() == all_dof ? nullptr : &task_.dof());
+        if (spectrum.known) out.set_singular_values(spectrum.smin, spectrum.smax);
+        else if (o.diagnostics) out.set_gram(w.solver.N0);  // computed when read
+        else out.clear_singular_values();
         out.velocity = -out.gain * x;
-        out.saturation_scale = saturation_scale(out.velocity, options_.max_linear_speed, options_.max_angular_speed);
+        out.saturation_scale = saturation_scale(out.velocity, o.max_linear_speed, o.max_angular_speed);
         out.saturated = out.saturation_scale < 1.0;
         if (out.saturated) out.velocity *= out.saturation_scale;
+        if (extras_) {  // smoothing, the near-goal switch or a stop ramp: the twist's history matters
+          smooth(w.key ^ fallback_pattern(layout, o.polar_min_radius, uv, uv_desired), out);
+          w.key = 0;
+        }
         return out.status = spectrum.singular ? Status::singular : Status::ok;
         }
       },
       kernel.work);
+}
+
+// The automatic law switch: every polar block Cartesian near the goal (with hysteresis).
+[[gnu::noinline]] void Servo::switch_near_goal(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Points>& uv_desired,
+                             const PointMask* valid) noexcept {
+  double far = 0.0;
+  for (Eigen::Index i = 0; i < uv.cols(); ++i)
+    if (!valid || (*valid)(i)) far = std::max(far, (uv.col(i) - uv_desired.col(i)).norm());
+  near_goal_ = far < options_.cartesian_near_goal * (near_goal_ ? near_goal_hysteresis : 1.0);
+}
+
+// The smooth law (smoothing.hpp) on the step's twist; key: this step's Cartesian / polar choices
+// and lost points (a change of them is a change of law).
+[[gnu::noinline]] void Servo::smooth(std::uint64_t key, ServoOutput& out) noexcept {
+  const ServoOptions& o = options_;
+  const Smoothing& sm = o.smoothing;
+  if (sm.enabled()) {
+    if (key != pattern_) smoother_.switch_law();
+    out.law_switched = smoother_.switching() && sm.decay_rate > 0.0;
+    out.acceleration_limited = smoother_.apply(sm, o.max_linear_speed, o.max_angular_speed, out.velocity);
+  } else {
+    smoother_.note(out.velocity);
+  }
+  pattern_ = key;
+}
+
+// Too few valid points: the twist ramps linearly to zero from the one commanded when the stop began.
+[[gnu::noinline]] Status Servo::stop(ServoOutput& out) noexcept {
+  if (!stopping_) {
+    stopping_ = true;
+    stop_elapsed_ = 0.0;
+    stop_from_ = smoother_.last();
+  }
+  stop_elapsed_ += options_.smoothing.period;
+  const double left = options_.stop_time > 0.0 ? std::max(0.0, 1.0 - stop_elapsed_ / options_.stop_time) : 0.0;
+  out.velocity = left * stop_from_;
+  out.saturated = false;
+  out.saturation_scale = 1.0;
+  out.clear_singular_values();
+  smoother_.note(out.velocity);
+  smoother_.switch_law();  // when the points return, the law starts from the twist of the ramp
+  return out.status = Status::features_lost;
 }
 
 Status detail::refuse(ServoOutput& out) noexcept {
@@ -440,6 +650,8 @@ Status detail::refuse(ServoOutput& out) noexcept {
   out.jacobian.setConstant(nan);
   out.clear_singular_values();
   out.polar_fallbacks = 0;
+  out.lost_points = 0;
+  out.law_switched = out.acceleration_limited = false;
   out.gain = 0.0;
   out.saturated = false;
   out.saturation_scale = 1.0;

@@ -45,11 +45,13 @@ class Representation:
     def value(self) -> int: ...
 
 class Status:
-    """What an update() returns: ok = 0, singular = 1 (rank-deficient Jacobian), invalid_input = -1."""
+    """What an update() returns: ok = 0, singular = 1 (rank-deficient Jacobian), features_lost = 2 (too
+    few valid points: the twist ramps to zero), invalid_input = -1."""
 
     ok: ClassVar[Status]
     singular: ClassVar[Status]
     invalid_input: ClassVar[Status]
+    features_lost: ClassVar[Status]
     __members__: ClassVar[dict[str, Status]]
     def __init__(self, value: int) -> None: ...
     def __int__(self) -> int: ...
@@ -326,6 +328,15 @@ class ServoResult:
     @property
     def pixel_error(self) -> float:
         """update_pixels: largest point-to-goal distance in pixels; NaN after update."""
+    @property
+    def lost_points(self) -> int:
+        """Points marked invalid this step (update(valid=...))."""
+    @property
+    def law_switched(self) -> bool:
+        """The continuous law (decay_rate > 0) started a transition this step."""
+    @property
+    def acceleration_limited(self) -> bool:
+        """The change of twist was scaled down to the acceleration limits this step."""
 
 class Feature:
     """A block of feature rows of a Task beside its points.
@@ -476,6 +487,14 @@ class Servo:
                 rotation about their circular mean (see feature_error), the mean kept on the
                 previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
                 forgets it); "per_point": eq. (13) point by point, no memory
+      decay_rate  mu >= 0 (1/s): the continuous law of Mansard & Chaumette 2007 (eq. 17) from the
+                first update, reset(twist) and every change of law, of the Cartesian / polar
+                choices or of the valid points; 0 = off
+      max_linear_acceleration, max_angular_acceleration  > 0 (m/s^2, rad/s^2), direction kept
+      period    the control period (s) the above and stop_time need; ibvs.sim.run uses 1/fps
+      cartesian_near_goal  > 0: every polar block Cartesian while every valid point lies within
+                this distance (normalised) of its goal (polar again beyond 1.5 times it)
+      stop_time  >= 0 (s): with too few valid points the twist ramps to zero over this time
     """
 
     gain: Union[float, AdaptiveGain]
@@ -501,6 +520,12 @@ class Servo:
         camera: CameraModel | None = None,
         angle_wrap: str = "consistent",
         exact_diagnostics: bool = False,
+        decay_rate: float = 0.0,
+        max_linear_acceleration: float = ...,
+        max_angular_acceleration: float = ...,
+        period: float = 0.0,
+        cartesian_near_goal: float = 0.0,
+        stop_time: float = 0.0,
     ) -> None: ...
     @staticmethod
     def automatic_hybrid(
@@ -528,15 +553,29 @@ class Servo:
         depth_desired: _Depth | None = None,
         measurements: _ArrayLike | Sequence[_ArrayLike] | None = None,
         measurements_desired: _ArrayLike | Sequence[_ArrayLike] | None = None,
+        valid: _ArrayLike | None = None,
     ) -> ServoResult:
         """uv, uv_desired (N, 2) or (N, 1, 2) normalised; depth metres; measurements of a Task's feature
-        blocks: one array per block or all of them concatenated."""
+        blocks: one array per block or all of them concatenated; valid: None or N bools (False: a lost
+        point, left out of the law; its uv and depth may be NaN)."""
     def update_pixels(
         self, pixels: _ArrayLike, depth: _Depth, pixels_desired: _ArrayLike, depth_desired: _Depth | None = None
     ) -> ServoResult:
         """pixels, pixels_desired (N, 2) or (N, 1, 2) as measured; normalised with the servo's camera."""
-    def reset(self) -> None:
-        """Forget the previous frame's angle-wrap branch."""
+    def reset(self, twist: _ArrayLike | None = None) -> None:
+        """Forget the previous frame's angle-wrap branch; with decay_rate > 0 start from twist (None: rest)."""
+    @property
+    def decay_rate(self) -> float: ...
+    @property
+    def max_linear_acceleration(self) -> float: ...
+    @property
+    def max_angular_acceleration(self) -> float: ...
+    @property
+    def period(self) -> float: ...
+    @property
+    def cartesian_near_goal(self) -> float: ...
+    @property
+    def stop_time(self) -> float: ...
     @property
     def camera(self) -> CameraModel | None:
         """The CameraModel used by update_pixels (None if not given)."""
@@ -935,5 +974,6 @@ class sim:
         boundary_gain: float = 0.1,
         standoff_ratio: float = 0.05,
         sensor: sim.Sensor | None = None,
+        keep_lost: bool = False,
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""

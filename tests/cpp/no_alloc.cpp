@@ -428,8 +428,70 @@ void mounting_and_secondary_allocate_nothing() {
   }
 }
 
+// The smooth law, the near-goal switch, lost points (masked step and stop ramp) and an episode
+// keeping its lost points: Servo::update and Episode::run allocate nothing with them either.
+class Hiding final : public sim::Sensor {
+ public:
+  void reset(std::uint64_t) noexcept override {}
+  bool measure(const sim::SensorFrame& f, Eigen::Ref<Points> m) noexcept override {
+    m = *f.projected;
+    if (f.frame >= 5 && f.frame < 15) m.col(1).setConstant(std::numeric_limits<double>::quiet_NaN());
+    return true;
+  }
+};
+
+void smooth_and_lost_allocate_nothing() {
+  for (const Layout& L : {Layout::cartesian(4), Layout::stacked(4), Layout::polar(5), Layout::stacked(64)}) {
+    ServoOptions o;
+    o.smoothing.decay_rate = 4.0;
+    o.smoothing.max_linear_acceleration = 0.5;
+    o.smoothing.max_angular_acceleration = 1.0;
+    o.smoothing.period = 0.01;
+    o.cartesian_near_goal = 0.5;
+    o.stop_time = 0.05;
+    Servo servo(L, o);
+    ServoInput in(L);
+    ServoOutput out(L);
+    for (int i = 0; i < L.n_points(); ++i) {
+      const double a = 2 * pi * i / L.n_points();
+      in.uv.col(i) << 0.1 * std::cos(a), 0.1 * std::sin(a);
+      in.uv_desired.col(i) << 0.12 * std::cos(a + 0.3), 0.12 * std::sin(a + 0.3);
+    }
+    const long before = news.load();
+    Status st = servo.update(in, out);
+    in.valid(1) = false;  // degraded
+    in.uv.col(1).setConstant(std::numeric_limits<double>::quiet_NaN());
+    const Status degraded = servo.update(in, out);
+    in.valid.setConstant(false);  // too few: the stop ramp
+    const Status lost = servo.update(in, out);
+    in.valid.setConstant(true);
+    in.uv.col(1) << 0.1, 0.0;
+    st = servo.update(in, out);
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in the smooth / masked update", __FILE__, __LINE__, L.describe());
+    CHECK(st == Status::ok && degraded == Status::ok && lost == Status::features_lost);
+  }
+  sim::EpisodeOptions eo;
+  eo.keep_lost = true;
+  eo.duration = 2.0;
+  ServoOptions o;
+  o.smoothing.decay_rate = 4.0;
+  o.smoothing.period = 1.0;
+  o.stop_time = 0.2;
+  sim::Episode e(Servo(Layout::cartesian(4), o), CameraModel::normalized(0.3), sim::Target::paper(), eo);
+  e.set_sensor(std::make_shared<Hiding>());
+  Pose start = Pose::Identity();
+  start(0, 3) = 0.1;
+  e.run(start, Pose::Identity());  // warm
+  const long before = news.load();
+  e.run(start, Pose::Identity());
+  const long during = news.load() - before;
+  ibvs_test::report(during == 0, "no allocation in a keep_lost episode", __FILE__, __LINE__, std::to_string(during));
+}
+
 void run_tests() {
   mounting_and_secondary_allocate_nothing();
+  smooth_and_lost_allocate_nothing();
   counter_sees_allocations();
   segment_ellipse_allocate_nothing();
   estimators_allocate_nothing();

@@ -295,6 +295,73 @@ void fuzz_mounting_secondary(Bytes& b) {
   CHECK(st == Status::invalid_input ? sout.qdot.isZero(0.0) : sout.qdot.allFinite());
 }
 
+// The smooth law and lost points (smoothing.hpp, ServoInput::valid): options with any values,
+// a random validity mask (NaN where a point is lost), several frames so that transitions, the
+// near-goal switch and the stop ramp happen. validate() throws iff update() refuses; accepted
+// steps (ok, singular, features_lost) give a finite twist and error.
+void fuzz_smooth(Bytes& b) {
+  const int n = b.small(1, 6), kind = b.small(0, 2);
+  const Layout layout = kind == 0 ? Layout::cartesian(n) : kind == 1 ? Layout::polar(n) : Layout::stacked(n);
+  ServoOptions o;
+  o.gain = b.byte() < 220 ? 0.1 + b.byte() / 50.0 : b.real();
+  o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
+  Smoothing& sm = o.smoothing;
+  sm.decay_rate = b.byte() < 200 ? b.byte() / 10.0 : b.real();
+  if (b.byte() > 100) sm.max_linear_acceleration = b.byte() < 200 ? 0.01 + b.byte() / 20.0 : b.real();
+  if (b.byte() > 100) sm.max_angular_acceleration = b.byte() < 200 ? 0.01 + b.byte() / 20.0 : b.real();
+  sm.period = b.byte() < 200 ? 0.001 + b.byte() / 1000.0 : b.real();
+  o.cartesian_near_goal = b.byte() < 150 ? 0.0 : b.byte() < 230 ? b.byte() / 500.0 : b.real();
+  o.stop_time = b.byte() < 150 ? 0.0 : b.byte() < 230 ? b.byte() / 100.0 : b.real();
+  if (b.byte() > 200) o.max_linear_speed = b.byte() < 128 ? 0.05 : b.real();
+  bool options_ok = true;
+  try {
+    Servo::validate(o);
+  } catch (const std::invalid_argument&) {
+    options_ok = false;
+  }
+  std::optional<Servo> servo;
+  try {
+    servo.emplace(layout, o);
+  } catch (const std::invalid_argument&) {
+  }
+  ibvs_test::report(options_ok == servo.has_value(), "Servo(smooth options) throws iff validate(options) does",
+                    __FILE__, __LINE__);
+  if (!servo) return;
+  ServoInput in(layout);
+  ServoOutput out(layout);
+  for (int i = 0; i < n; ++i) {
+    in.uv_desired.col(i) << b.coordinate(), b.coordinate();
+    in.depth_desired(i) = b.depth();
+  }
+  for (int frame = 0; frame < 6; ++frame) {
+    for (int i = 0; i < n; ++i) {
+      in.valid(i) = b.byte() < 200;
+      const bool hostile = !in.valid(i) && b.byte() < 128;  // a lost point's values are not read
+      in.uv.col(i) << (hostile ? b.real() : b.coordinate()), (hostile ? b.real() : b.coordinate());
+      in.depth(i) = hostile ? b.real() : b.depth();
+    }
+    if (b.byte() > 250) in.valid.resize(n + 1), in.valid.setConstant(true);  // a wrong size
+    bool accepted = true;
+    try {
+      servo->validate(in);
+    } catch (const std::invalid_argument&) {
+      accepted = false;
+    }
+    const Status st = servo->update(in, out);
+    ibvs_test::report(accepted == (st != Status::invalid_input), "validate(valid) throws iff update refuses",
+                      __FILE__, __LINE__, layout.describe());
+    if (st == Status::invalid_input) {
+      CHECK(out.velocity.isZero(0.0));
+      in.valid = PointMask::Constant(n, true);
+    } else {
+      ibvs_test::report(out.velocity.allFinite() && out.error.allFinite() && out.jacobian.allFinite() &&
+                            finite(out.error_norm),
+                        "smooth / masked step: finite outputs", __FILE__, __LINE__, layout.describe());
+    }
+    if (b.byte() > 240) servo->reset();
+  }
+}
+
 // ---- Tasks of feature blocks --------------------------------------------------
 // Each kind the task fuzzer draws from: a block and a measurement of it, mostly
 // plausible (so that the accepted path is reached), sometimes hostile (every
@@ -431,11 +498,12 @@ void fuzz_task(Bytes& b) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 5) {
+  switch (b.byte() % 6) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
     case 2: fuzz_task(b); break;
     case 3: fuzz_mounting_secondary(b); break;
+    case 4: fuzz_smooth(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

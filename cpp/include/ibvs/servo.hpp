@@ -12,6 +12,7 @@
 #include "ibvs/layout.hpp"
 #include "ibvs/pixel_front_end.hpp"
 #include "ibvs/limits.hpp"
+#include "ibvs/smoothing.hpp"
 #include "ibvs/task.hpp"
 
 #include <Eigen/Core>
@@ -35,6 +36,10 @@ enum class Status : std::int8_t {
   singular = 1,        ///< sigma_min <= singular_tolerance(M) sigma_max (J rank-deficient to what
                        ///< J^T J resolves); the twist is still the finite minimum-norm (or damped)
                        ///< solution. Reported only with diagnostics on.
+  /// Too few valid points for the task's degrees of freedom (ServoInput::valid: 2 x valid points +
+  /// feature rows < Task::n_dof()): the twist ramps linearly from the last commanded one to zero
+  /// over ServoOptions::stop_time, then stays 0, until enough points are valid again.
+  features_lost = 2,
   invalid_input = -1,  ///< an input validate() refuses (non-finite, outside limits.hpp, wrong size):
                        ///< twist 0, error, Jacobian and diagnostics NaN
 };
@@ -62,7 +67,27 @@ struct ServoOptions {
   /// circular mean, with frame-to-frame continuity (default), or point by point (eq. 13).
   /// See angle_wrap.hpp for the exact rules.
   AngleWrap angle_wrap = AngleWrap::consistent;
+  /// Smooth starts and switches (smoothing.hpp): the continuous law with decay rate mu and
+  /// acceleration limits, applied at the first update, after reset(), after set_options()
+  /// changes the law (jacobian, polar_min_radius, angle_wrap, cartesian_near_goal), when the
+  /// Cartesian / polar choice of a block changes, and when the set of valid points changes.
+  /// Off by default (the instantaneous law, bit for bit).
+  Smoothing smoothing{};
+  /// > 0, normalised units: automatic law switch. Every polar block is computed as Cartesian
+  /// while every valid point lies within this distance of its desired point, and polar again
+  /// once one is farther than near_goal_hysteresis times it (polar far from the goal for its
+  /// straight r-theta paths, Cartesian near it for its straight image paths). 0 = off.
+  double cartesian_near_goal = 0.0;
+  /// >= 0, s: with too few valid points (Status::features_lost), the time over which the twist
+  /// ramps to zero (0: at once). Needs smoothing.period > 0 when > 0.
+  double stop_time = 0.0;
 };
+
+/// The automatic law switch returns to polar beyond this multiple of cartesian_near_goal.
+inline constexpr double near_goal_hysteresis = 1.5;
+
+/// Which points a tracker still has (ServoInput::valid): true = measured.
+using PointMask = Eigen::Array<bool, Eigen::Dynamic, 1>;
 
 /// Per-frame input, sized once for a task (N points, its feature blocks'
 /// measurements). The library allocates its buffers and frees them (special
@@ -84,6 +109,10 @@ struct ServoInput {
   /// current and at the goal; empty for a task of points only.
   Eigen::VectorXd measurements;
   Eigen::VectorXd measurements_desired;
+  /// N, true where the point is measured (default all). A point marked false (a tracker lost it)
+  /// is left out of the law: its uv and depth are not read (NaN allowed) and its rows of J and of
+  /// the error are 0 (ServoOutput::lost_points counts them). uv_desired must still be valid.
+  PointMask valid;
 };
 
 /// Per-frame output, sized once for a layout (M rows); buffers owned by the
@@ -105,6 +134,9 @@ struct ServoOutput {
   double gain = 0.0;               ///< the gain applied this step (constant or adaptive_gain(error_norm))
   bool saturated = false;          ///< the twist was scaled down to the speed limits
   double saturation_scale = 1.0;   ///< that factor, in (0, 1]; 1 when not saturated
+  int lost_points = 0;                ///< points marked invalid (ServoInput::valid) this step
+  bool law_switched = false;          ///< the smooth law started a transition this step (smoothing.hpp)
+  bool acceleration_limited = false;  ///< the twist change was scaled to the acceleration limits
   /// update_pixels(): the largest distance, in pixels, between a measured point and its
   /// desired point (a tolerance in pixels compares with this); NaN after update().
   double pixel_error = std::numeric_limits<double>::quiet_NaN();
@@ -165,6 +197,17 @@ struct ServoOutput {
 /// have bounded rows and never fall back: their error is
 /// (r - r*, r wrap(theta - theta*)) and their rows the derivative of it (see
 /// cylindrical_jacobian); a point at r = 0 borrows the other point's direction.
+///
+/// Smooth starts and switches (options.smoothing, smoothing.hpp): the twist above is the law's;
+/// with a decay rate mu the commanded one is the continuous law of Mansard & Chaumette 2007
+/// (eq. 17), then scaled to the acceleration limits. Transitions: the first update, reset(),
+/// switch_law(), a set_options() that changes the law, a change of the Cartesian / polar choice
+/// of a block (polar_min_radius, cartesian_near_goal) or of the valid points. Turning smoothing
+/// on mid-run starts from the last twist it saw (give the current one with reset(twist)).
+///
+/// Lost points (ServoInput::valid): their blocks' rows are zeroed (weighted least squares with
+/// weight 0: exactly the law of the other points); below 2 x valid points + feature rows =
+/// Task::n_dof() the step is Status::features_lost and the twist ramps to zero over stop_time.
 class Servo {
  public:
   /// A task: the points of a Layout (a Layout converts to one), feature blocks, weights, DOF.
@@ -179,8 +222,12 @@ class Servo {
   /// Replace the options (gain scheduling etc.). Throws on invalid values; never allocates.
   void set_options(const ServoOptions& options);
   static void validate(const ServoOptions& options);
-  /// Forget the previous frame's angle-wrap branch (see angle_wrap.hpp). noexcept.
-  void reset() noexcept;
+  /// Forget the previous frame's angle-wrap branch (see angle_wrap.hpp) and, with smoothing,
+  /// start the next update from `current`, the twist the camera has (rest by default). noexcept.
+  void reset(const Twist& current = Twist::Zero()) noexcept;
+  /// Smoothing: the law changes now (e.g. a gain switched by hand, or another servo handing
+  /// over): the next update blends from `from`, the twist last commanded. noexcept.
+  void switch_law(const Twist& from) noexcept;
 
   /// Throws std::invalid_argument naming the first bad argument.
   void validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
@@ -193,8 +240,13 @@ class Servo {
                 const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                 const Eigen::Ref<const Eigen::VectorXd>& measurements,
                 const Eigen::Ref<const Eigen::VectorXd>& measurements_desired) const;
+  /// validate() above for the points marked valid only (valid: N entries; the others are not read).
+  void validate(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask& valid) const;
   void validate(const ServoInput& in) const {
-    validate(in.uv, in.depth, in.uv_desired, in.depth_desired, in.measurements, in.measurements_desired);
+    validate(in.uv, in.depth, in.uv_desired, in.depth_desired, in.measurements, in.measurements_desired, in.valid);
   }
 
   /// One control step of a task of points only (a task with feature blocks needs their
@@ -207,8 +259,17 @@ class Servo {
                 const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
                 const Eigen::Ref<const Eigen::VectorXd>& measurements,
                 const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, ServoOutput& out) noexcept;
+  /// One control step with some points possibly lost (valid: N entries, see ServoInput::valid):
+  /// the law on the valid points while 2 x valid points + feature rows >= Task::n_dof() (>= 3
+  /// points for 6 DOF), else Status::features_lost and the twist ramped to zero over stop_time.
+  Status update(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+                const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements,
+                const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask& valid,
+                ServoOutput& out) noexcept;
   Status update(const ServoInput& in, ServoOutput& out) noexcept {
-    return update(in.uv, in.depth, in.uv_desired, in.depth_desired, in.measurements, in.measurements_desired, out);
+    return update(in.uv, in.depth, in.uv_desired, in.depth_desired, in.measurements, in.measurements_desired, in.valid,
+                  out);
   }
 
   /// Pixels in, twist out (cpp/src/pixels.cpp): the camera model that update_pixels() uses.
@@ -229,8 +290,25 @@ class Servo {
 
  private:
   struct Kernel;  // sized workspace: fixed 8 or 16 rows, or dynamic
+  Status step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
+              const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,
+              const Eigen::Ref<const Eigen::VectorXd>& measurements,
+              const Eigen::Ref<const Eigen::VectorXd>& measurements_desired, const PointMask* valid, int lost,
+              ServoOutput& out) noexcept;
+  Status stop(ServoOutput& out) noexcept;
+  void switch_near_goal(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Points>& uv_desired,
+                        const PointMask* valid) noexcept;
+  void smooth(std::uint64_t key, ServoOutput& out) noexcept;
   Task task_;
   ServoOptions options_;
+  ServoOptions near_options_;  // options_ with every polar block Cartesian (cartesian_near_goal)
+  TwistSmoother smoother_;     // smoothing.hpp: the last twist and the continuous law's offset
+  std::uint64_t pattern_ = 0;  // the last step's Cartesian / polar choices and valid points (a hash)
+  bool extras_ = false;        // smoothing, cartesian_near_goal or stop_time on (else the plain law)
+  bool near_goal_ = false;     // cartesian_near_goal: within the switch distance
+  bool stopping_ = false;      // Status::features_lost: ramping the twist to zero
+  double stop_elapsed_ = 0.0;
+  Twist stop_from_ = Twist::Zero();
   std::unique_ptr<Kernel> kernel_;
   detail::PixelFrontEnd pixels_;  // camera and normalised points of update_pixels()
   double wrap_centre_;  // previous frame's angle-wrap centre; NaN: none (after construction / reset())

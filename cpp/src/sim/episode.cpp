@@ -60,6 +60,8 @@ void EpisodeOptions::validate() const {
   if (!(boundary_margin >= 0.0) || !std::isfinite(boundary_margin)) fail("boundary_margin must be finite and >= 0");
   if (!(boundary_gain >= 0.0) || !std::isfinite(boundary_gain)) fail("boundary_gain must be finite and >= 0");
   if (!(standoff_ratio >= 0.0) || !std::isfinite(standoff_ratio)) fail("standoff_ratio must be finite and >= 0");
+  if (keep_lost && depth != DepthMode::exact && depth != DepthMode::desired)
+    fail("keep_lost needs depth exact or desired (the pose and estimated depths need every point)");
 }
 
 namespace {
@@ -122,6 +124,16 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   if (layout.n_points() != n)
     throw std::invalid_argument("ibvs: servo layout has " + std::to_string(layout.n_points()) +
                                 " points but the target has " + std::to_string(n));
+  if (options_.keep_lost && !std::holds_alternative<Servo>(servo_))
+    throw std::invalid_argument("ibvs: keep_lost needs a Servo (a PartitionedServo cannot leave points out)");
+  // The smooth law's clock (smoothing.hpp) is the frame period.
+  if (Servo* s = std::get_if<Servo>(&servo_)) {
+    ServoOptions so = s->options();
+    if (so.smoothing.enabled() || so.stop_time > 0.0) {
+      so.smoothing.period = 1.0 / camera_.fps();
+      s->set_options(so);
+    }
+  }
   const long frames = std::lround(options_.duration * camera_.fps());
   stages_.reset(new Stages{stages::Measure(camera_, target_.world_points(), options_.latency, options_.min_depth),
                            stages::Depths(options_, camera_, target_.points),  // pose: throws unless planar
@@ -236,9 +248,9 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     depths.estimate(k, measure.uv(), measure.true_depths(seen));
     stages::record_view(h, k, measure.uv(), depths.depth());
     const Status s = control.step(servo_, measure.uv(), depths.depth(), result_.uv_desired, result_.depth_desired,
-                                  measure.measured(seen));
+                                  measure.measured(seen), &measure.valid());
     if (s != Status::invalid_input) stages::record_control(h, k, control.output());
-    if (judge.control(k, s, control.output(), sighting.pixel_error, st)) break;
+    if (judge.control(k, s, control.output(), sighting.pixel_error, st, measure.first_lost())) break;
 
     // Actuate: the motion until the next frame.
     const Twist& v = control.output().velocity;

@@ -81,6 +81,7 @@ def run(
     standoff_ratio: float = 0.05,
     vision=None,
     record=None,
+    keep_lost: bool = False,
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -132,10 +133,16 @@ def run(
     vision: None (the points are the camera model's projections plus `noise`), "dots" or "tag"
         (ibvs.vision.ImageSensor.for_target(camera, target, vision): each frame is rendered,
         the dots tracked or the tag detected, and their pixels undistorted for the servo; a
-        point the tracker loses ends the episode as lost_feature), or any ibvs.sim.Sensor
+        point the tracker loses ends the episode as lost_feature, unless keep_lost), or any ibvs.sim.Sensor
         (an ImageSensor with your renderer options). Needs a pixel camera. With a sensor,
         `noise` is not added (the image has its own) but still tells the depth estimator the
         measurement noise (px).
+    keep_lost: False (default): the first point the sensor loses ends the episode as lost_feature. True:
+        the servo (an ibvs.Servo; depth "exact" or "desired") leaves the lost points out (Servo.update's
+        valid) and runs on the others while 2 x valid points >= its DOF (not converged while one is lost);
+        with fewer it ramps the twist to zero over its stop_time, and the episode ends as lost_feature
+        once the twist is zero, unless the points come back first. The servo's period (decay_rate,
+        acceleration limits, stop_time) is replaced by 1 / camera.fps.
     record: None, or a path: the episode is also written there as a ROS 2 bag (a path ending in .mcap: one
         MCAP file; else a rosbag2 directory), after the run and atomically, stamped at the simulated frame
         times; an image sensor then keeps its frames (keep_frames). Needs the ros extra (rosbags).
@@ -196,6 +203,7 @@ def run(
         boundary_gain=_real(boundary_gain, "boundary_gain"),
         standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
         sensor=vision if recording is None else recording.sensor,
+        keep_lost=_bool(keep_lost, "keep_lost"),
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
     history = History(

@@ -26,6 +26,9 @@ class DotTracker:
     its sub-pixel intensity centroid (background-subtracted, over the blob grown by 2 px). A dot is
     lost when its blob touches the image border or its gate, or no blob is in its gate; a blob
     already taken by another point is refused ("conflict"): correspondences never swap.
+    A lost dot is searched for again in every later frame (e.g. after an occlusion) around its
+    position carried along by the others: the affine map that moves the dots tracked in two
+    successive frames (least squares, >= 3 of them) is applied to its last estimate.
     """
 
     def __init__(
@@ -65,8 +68,24 @@ class DotTracker:
                 f"pixels must be {self.n} finite guesses, shape ({self.n}, 2), got shape {p.shape}"
             )
         self._last, self._prev = p.copy(), None
+        self._ghost = np.full((self.n, 2), np.nan)  # a lost dot's position carried by the others
         self._radius = np.full(self.n, np.nan)
         self._level = self.threshold
+
+    def _carry(self, out: np.ndarray) -> None:
+        """The lost dots' estimates moved by the affine map of the dots tracked in the last and this frame."""
+        lost = ~np.isfinite(out).all(axis=1)
+        if not lost.any():
+            self._ghost[:] = np.nan
+            return
+        both = np.isfinite(out).all(axis=1) & np.isfinite(self._last).all(axis=1)
+        if both.sum() < 3:
+            return
+        src = np.hstack([self._last[both], np.ones((int(both.sum()), 1))])
+        A, *_ = np.linalg.lstsq(src, out[both], rcond=None)  # (3, 2): [x y 1] @ A
+        start = np.where(np.isfinite(self._last), self._last, self._ghost)[lost]
+        self._ghost[lost] = np.hstack([start, np.ones((len(start), 1))]) @ A
+        self._ghost[~lost] = np.nan
 
     def track(self, image) -> Track:
         """The dots in this image (see the class)."""
@@ -78,7 +97,11 @@ class DotTracker:
         if self._level is None:
             self._level = float(cv2.threshold(image, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)[0])
         W, H = self.size
-        pred = self._last if self._prev is None else 2 * self._last - self._prev
+        if self._prev is None:
+            pred = self._last.copy()
+        else:  # constant velocity where a dot has two positions, else its last
+            pred = np.where(np.isfinite(self._prev), 2 * self._last - self._prev, self._last)
+        pred = np.where(np.isfinite(pred), pred, self._ghost)  # lost dots: where the others carried them
         out = np.full((self.n, 2), np.nan)
         status = ["lost_gate"] * self.n
         taken: list = []
@@ -129,5 +152,6 @@ class DotTracker:
             taken.append(i)
             status[i] = "tracked"
             self._radius[i] = math.sqrt(stats[best, cv2.CC_STAT_AREA] / math.pi)
+        self._carry(out)
         self._prev, self._last = self._last, np.where(np.isfinite(out), out, np.nan)
         return Track(out, tuple(status), time.perf_counter() - t0)

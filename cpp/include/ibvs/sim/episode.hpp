@@ -17,7 +17,8 @@
 //      paper's ViSP camera): by default those plus Gaussian noise (seeded;
 //      ProjectionSensor), or e.g. dots found in a rendered image
 //      (ibvs.vision); a point the sensor lost ends the episode
-//      (lost_feature). Written into a latency ring buffer; the controller
+//      (lost_feature), or with keep_lost is left out by the servo
+//      (ServoInput::valid) until too few remain and its twist has ramped to 0. Written into a latency ring buffer; the controller
 //      reads the one taken `latency` frames earlier (before t = 0 the camera
 //      sat at its start);
 //   4. the controller's points: the delayed measurement normalised by the
@@ -150,7 +151,8 @@ enum class Outcome : std::uint8_t {
   timeout = 6,        ///< duration elapsed
   target_backside = 7,  ///< the camera centre went behind the planar target's plane (see above)
   collision = 8,        ///< the camera went through the target or within the standoff of it (see above)
-  lost_feature = 9,     ///< the sensor lost a point (tracking gate, image border, not detected; EpisodeStatus::point)
+  lost_feature = 9,     ///< the sensor lost a point (tracking gate, image border, not detected; EpisodeStatus::point);
+                        ///< with keep_lost: too few points left and the twist ramped to zero
 };
 const char* to_string(Outcome o) noexcept;
 const char* to_string(DepthMode d) noexcept;
@@ -178,6 +180,13 @@ struct EpisodeOptions {
   /// >= 0: collision when the camera centre comes closer to the target than this times the
   /// goal depth of the target's centroid (0: only going through a planar target collides).
   double standoff_ratio = 0.05;
+  /// Lost points (a tracker's): false (default) ends the episode as lost_feature at the first
+  /// frame the sensor loses a point. True: the servo (a Servo; depth exact or desired) is given
+  /// the lost points as invalid (ServoInput::valid) and runs on the others while enough remain
+  /// (degraded, not converged while a point is lost); with too few it ramps the twist to zero
+  /// over its stop_time (Status::features_lost) and the episode ends as lost_feature when the
+  /// twist has reached zero, unless the points come back first.
+  bool keep_lost = false;
 
   void validate() const;  ///< throws std::invalid_argument naming the field
 };

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <variant>
 
 namespace ibvs::sim::stages {
@@ -42,8 +43,11 @@ class Control {
   void aim(const Eigen::Ref<const Points>& goal_measured) noexcept { boundary_.aim(goal_measured); }
   /// servo.update(uv, z, uv_desired, z_desired) into output(), then (unless the servo refused
   /// the input) the boundary potential's Tz for `measured`, the measurement uv came from.
+  /// valid: null, or the points measured (a Servo leaves the others out; with every point
+  /// valid this is the plain update).
   Status step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
-              const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured) noexcept;
+              const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured,
+              const PointMask* valid = nullptr) noexcept;
   const ServoOutput& output() const noexcept { return out_; }
   const BoundaryPotential& boundary() const noexcept { return boundary_; }
 
@@ -75,6 +79,7 @@ inline double BoundaryPotential::tz(const Eigen::Ref<const Points>& measured,
     const auto p = measured.col(i);
     const double z = z_given(i);
     zbar += z;
+    if (!p.allFinite()) continue;  // a lost point (keep_lost) pushes nothing
     // distance to each side, its derivative along u or v, and d(u or v)/dTz (the Tz column of the
     // interaction matrix in measurement units)
     const double d[4] = {p(0) - camera_.u_min(), camera_.u_max() - p(0), p(1) - camera_.v_min(),
@@ -100,9 +105,16 @@ inline Control::Control(const Layout& layout, const CameraModel& camera, const E
     : out_(layout), boundary_(camera, options.boundary_margin, options.boundary_gain, layout.n_points()) {}
 
 inline Status Control::step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
-                            const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured) noexcept {
-  const Status s =
-      std::visit([&](auto& law) noexcept { return law.update(uv, z, uv_desired, z_desired, out_); }, servo);
+                            const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured,
+                            const PointMask* valid) noexcept {
+  const Eigen::VectorXd none;
+  const Status s = std::visit(
+      [&](auto& law) noexcept {
+        if constexpr (std::is_same_v<std::decay_t<decltype(law)>, Servo>)
+          if (valid) return law.update(uv, z, uv_desired, z_desired, none, none, *valid, out_);
+        return law.update(uv, z, uv_desired, z_desired, out_);
+      },
+      servo);
   if (s != Status::invalid_input && boundary_.active()) out_.velocity(2) += boundary_.tz(measured, z);
   return s;
 }

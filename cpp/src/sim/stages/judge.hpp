@@ -52,7 +52,10 @@ class Judge {
   bool sighting(int k, const Sighting& s, EpisodeStatus& st) const noexcept;
   bool view(int k, int lost, EpisodeStatus& st) const noexcept;
   /// pixel_error: the frame's Sighting::pixel_error (used when tolerance_px > 0; NaN never passes).
-  bool control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st) noexcept;
+  /// With keep_lost: lost_point is the first point the controller lacks (-1: none); not converged
+  /// while one is lost, and lost_feature once Status::features_lost has ramped the twist to zero.
+  bool control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st,
+               int lost_point = -1) noexcept;
   bool motion(int k, int joint, EpisodeStatus& st) const noexcept;
 
   /// Collision or target_backside for the camera centre moving from `from` (the last frame's;
@@ -127,7 +130,7 @@ inline bool Judge::sighting(int k, const Sighting& s, EpisodeStatus& st) const n
     st = {Outcome::left_image, k, s.outside, -1};
   else if (!s.sensed)  // the sensor itself failed (e.g. a Python sensor raised)
     st = {Outcome::diverged, k, -1, -1};
-  else if (s.missing >= 0)
+  else if (s.missing >= 0 && !options_.keep_lost)  // keep_lost: the servo decides (control())
     st = {Outcome::lost_feature, k, s.missing, -1};
   else
     return false;
@@ -140,13 +143,17 @@ inline bool Judge::view(int k, int lost, EpisodeStatus& st) const noexcept {
   return true;
 }
 
-inline bool Judge::control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st) noexcept {
+inline bool Judge::control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st,
+                           int lost_point) noexcept {
   if (s == Status::invalid_input) {  // e.g. an estimated depth <= 0
     st = {Outcome::diverged, k, -1, -1};
     return true;
   }
   if (k == 0) error0_ = out.error_norm;
-  if (out.error_norm < options_.tolerance && (options_.tolerance_px == 0.0 || pixel_error <= options_.tolerance_px))
+  if (s == Status::features_lost && out.velocity.isZero(0.0))
+    st = {Outcome::lost_feature, k, lost_point, -1};
+  else if (s != Status::features_lost && out.lost_points == 0 && out.error_norm < options_.tolerance &&
+           (options_.tolerance_px == 0.0 || pixel_error <= options_.tolerance_px))
     st = {Outcome::converged, k, -1, -1};
   else if (s == Status::singular && options_.stop_on_singular)
     st = {Outcome::singular, k, -1, -1};

@@ -16,6 +16,7 @@
 #pragma once
 
 #include "ibvs/camera_model.hpp"
+#include "ibvs/servo.hpp"
 #include "ibvs/sim/sensor.hpp"
 
 #include <Eigen/Core>
@@ -54,8 +55,12 @@ class Measure {
   Sighting capture(int k, const Pose& T_wc, const Eigen::Matrix3d& Rcw, const Eigen::Vector3d& tcw,
                    const Twist& moved, Sensor& sensor) noexcept;
   /// The controller's points of frame k (the capture of frame k - latency) into uv();
-  /// returns the first point whose pixel the model cannot normalise, or -1.
+  /// returns the first point whose pixel the model cannot normalise, or -1. A point the
+  /// sensor lost (NaN) is marked in valid() (its uv NaN), not returned.
   int view(int k) noexcept;
+  /// The last view's points the sensor measured (N), and the first it lost (-1: none).
+  const PointMask& valid() const noexcept { return valid_; }
+  int first_lost() const noexcept { return first_lost_; }
 
   int slot(int k) const noexcept { return k % slots_; }  ///< ring slot frame k's capture went to
   int seen(int k) const noexcept { return k >= latency_ ? (k - latency_) % slots_ : 0; }  ///< slot view(k) reads
@@ -82,6 +87,8 @@ class Measure {
   RowMatrix ring_depth_;   // (L+1) x N ring of true depths
   Points uv_;              // 2 x N the controller's points
   Points goal_;            // 2 x N the goal's measurement (teach)
+  PointMask valid_;        // N: the last view's measured points
+  int first_lost_ = -1;
 };
 
 // ---------------------------------------------------------------- implementation
@@ -100,6 +107,7 @@ inline Measure::Measure(const CameraModel& camera, const Eigen::Matrix3Xd& world
   ring_depth_.resize(slots_, n_);
   uv_.resize(2, n_);
   goal_.setZero(2, n_);
+  valid_ = PointMask::Constant(n_, true);
 }
 
 inline void Measure::teach(const Pose& goal, Sensor& sensor, Points& uv_desired,
@@ -179,10 +187,17 @@ inline int Measure::view(int k) noexcept {
   // A noisy pixel the model cannot invert (past the image of its fold radius) is lost to the controller.
   const int s = seen(k);
   int lost = -1;
+  first_lost_ = -1;
   for (int i = 0; i < n_; ++i) {
     const auto m = measured_.col(static_cast<Eigen::Index>(s) * n_ + i);
     Eigen::Vector2d q;
-    if (!camera_.normalize(m(0), m(1), q) && lost < 0) lost = i;
+    valid_(i) = m.allFinite();
+    if (!valid_(i)) {
+      q.setConstant(std::numeric_limits<double>::quiet_NaN());
+      if (first_lost_ < 0) first_lost_ = i;
+    } else if (!camera_.normalize(m(0), m(1), q) && lost < 0) {
+      lost = i;
+    }
     uv_.col(i) = q;
   }
   return lost;
