@@ -267,6 +267,21 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
   return d;
 }
 
+/// Appends the feature sources of a Python sequence to t (each validated against its points).
+void add_features(Target& t, py::handle features) {
+  if (features.is_none()) return;
+  if (py::isinstance<py::str>(features) || !py::isinstance<py::sequence>(features))
+    throw py::type_error("features must be a sequence of ibvs.sim.FeatureSource (e.g. LineSource(0, 1)), got " +
+                         type_name(features));
+  const py::sequence seq = py::reinterpret_borrow<py::sequence>(features);
+  for (std::size_t k = 0; k < seq.size(); ++k) {
+    if (!py::isinstance<FeatureSource>(seq[k]))
+      throw py::type_error("features[" + std::to_string(k) +
+                           "] must be an ibvs.sim.FeatureSource (e.g. LineSource(0, 1)), got " + type_name(seq[k]));
+    t.add(seq[k].cast<const FeatureSource&>());
+  }
+}
+
 }  // namespace
 
 void bind_sim(py::module_& m) {
@@ -320,19 +335,7 @@ the servo's Task, in the Task's order (e.g. [LineSource(0, 1), LineSource(1, 2)]
              t.points = Eigen::Map<const Eigen::Matrix3Xd>(a.data(), 3, a.shape(0));
              t.pose = pose.is_none() ? Pose(Pose::Identity()) : pose_arg(pose, "pose");
              t.validate();
-             if (!features.is_none()) {
-               if (py::isinstance<py::str>(features) || !py::isinstance<py::sequence>(features))
-                 throw py::type_error("features must be a sequence of ibvs.sim.FeatureSource (e.g. LineSource(0, 1)), got " +
-                                      type_name(features));
-               const py::sequence seq = py::reinterpret_borrow<py::sequence>(features);
-               for (std::size_t k = 0; k < seq.size(); ++k) {
-                 if (!py::isinstance<FeatureSource>(seq[k]))
-                   throw py::type_error("features[" + std::to_string(k) +
-                                        "] must be an ibvs.sim.FeatureSource (e.g. LineSource(0, 1)), got " +
-                                        type_name(seq[k]));
-                 t.add(seq[k].cast<const FeatureSource&>());
-               }
-             }
+             add_features(t, features);
              return t;
            }),
            py::arg("points"), py::arg("pose") = py::none(), py::arg("features") = py::none())
@@ -344,6 +347,15 @@ the servo's Task, in the Task's order (e.g. [LineSource(0, 1), LineSource(1, 2)]
             return l;
           },
           "The feature sources, in the order of the Task's feature blocks.")
+      .def(
+          "with_features",
+          [](const Target& t, py::handle features) {
+            Target out = t;
+            out.sources.clear();
+            add_features(out, features);
+            return out;
+          },
+          py::arg("features"), "A copy of the target (points, pose) with these feature sources instead.")
       .def_static("paper", &Target::paper, "Paper Table I: the points (+-0.25, +-0.25, 3) in the world.")
       .def_static(
           "square",
