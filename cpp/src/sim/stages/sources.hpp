@@ -136,10 +136,11 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
   f.points = &target_.points;
   for (int k = 0; k < task_->n_features(); ++k) {
     const auto& source = *target_.sources[static_cast<std::size_t>(k)];
-    const std::string name = "goal: target sources[" + std::to_string(k) + "] (" + source.describe() + ")";
+    const auto name = [&] { return "goal: target sources[" + std::to_string(k) + "] (" + source.describe() + ")"; };
     double* mk = desired_.data() + task_->offset(k);
-    if (!source.measure(f, mk)) throw std::invalid_argument("ibvs: " + name + " cannot be measured at the goal");
-    task_->feature(k).validate(mk, name);  // the block's own reason if it refuses the measurement
+    if (!source.measure(f, mk)) throw std::invalid_argument("ibvs: " + name() + " cannot be measured at the goal");
+    int entry = -1;
+    if (task_->feature(k).check(mk, entry)) task_->feature(k).validate(mk, name());  // the block's own reason
   }
 }
 
