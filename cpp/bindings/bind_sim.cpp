@@ -308,8 +308,8 @@ in it), or the plane through points i, j and k (a non-planar target).)")
                                                  k.is_none() ? -1 : int_in(k, "k", 0, n));
            }),
            py::arg("i"), py::arg("j"), py::arg("k") = py::none())
-      .def_property_readonly("i", &LineSource::i)
-      .def_property_readonly("j", &LineSource::j)
+      .def_property_readonly("i", &LineSource::i, "The line's first target point.")
+      .def_property_readonly("j", &LineSource::j, "The line's second target point.")
       .def_property_readonly("k", [](const LineSource& l) -> py::object { return l.k() < 0 ? py::none() : py::cast(l.k()); },
                              "The plane's third point, or None: the target's z = 0 plane.")
       .def("__repr__",

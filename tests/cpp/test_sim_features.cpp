@@ -5,6 +5,7 @@
 // pose, computed here independently; a user-defined source plugs in; a source
 // that cannot measure ends the episode as lost_feature; bad set-ups are refused.
 #include "check.hpp"
+#include "projected_line_source.hpp"
 #include "sim_cases.hpp"
 #include "sim/stages/sources.hpp"
 
@@ -142,30 +143,6 @@ void measurements_are_the_lines_of_the_points() {
     for (int c = 0; c < 5; ++c) CHECK_NEAR(r.measurements_desired(c), md[c], 1e-12);
   }
 }
-
-// A user's own source: the same lines, projected from the 3-D points with the true pose
-// (no noise), the plane from the depth pose: the pattern docs/simulator.md describes.
-class ProjectedLineSource final : public FeatureSource {
- public:
-  ProjectedLineSource(int i, int j) : i_(i), j_(j) {}
-  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<ProjectedLineSource>(*this); }
-  std::string describe() const override { return "projected line"; }
-  int size() const noexcept override { return 5; }
-  bool fits(const Feature& f) const noexcept override { return dynamic_cast<const LineFeature*>(&f) != nullptr; }
-  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override {
-    if (std::max(i_, j_) >= points.cols()) throw std::invalid_argument("ibvs: " + name + ": no such point");
-  }
-  bool measure(const SourceFrame& f, double* m) const noexcept override {
-    const Eigen::Vector3d a = f.cMo.topLeftCorner<3, 3>() * f.points->col(i_) + f.cMo.topRightCorner<3, 1>();
-    const Eigen::Vector3d b = f.cMo.topLeftCorner<3, 3>() * f.points->col(j_) + f.cMo.topRightCorner<3, 1>();
-    double plane[3];
-    return plane_in_camera(f.depth_pose, Eigen::Vector3d::UnitZ(), 0.0, plane) &&
-           LineFeature::measure(a(0) / a(2), a(1) / a(2), b(0) / b(2), b(1) / b(2), plane[0], plane[1], plane[2], m);
-  }
-
- private:
-  int i_, j_;
-};
 
 // A source that stops measuring at frame 3.
 class FlakySource final : public FeatureSource {
