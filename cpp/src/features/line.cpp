@@ -11,7 +11,7 @@ namespace ibvs {
 std::array<double, 5> LineFeature::measure(double x1, double y1, double x2, double y2, double A, double B, double C) {
   std::array<double, 5> m{};
   if (!measure(x1, y1, x2, y2, A, B, C, m.data()))
-    throw std::invalid_argument("ibvs: line: the two points must be distinct and finite");
+    throw std::invalid_argument("ibvs: line: the two points must be distinct and finite (and the plane finite)");
   return m;
 }
 
@@ -26,6 +26,7 @@ bool LineFeature::measure(double x1, double y1, double x2, double y2, double A, 
     c = -c;
     s = -s;
   }
+  if (!std::isfinite(rho) || !std::isfinite(A) || !std::isfinite(B) || !std::isfinite(C)) return false;
   m[0] = rho;
   m[1] = polar_angle(c, s);
   m[2] = A;

@@ -19,7 +19,9 @@ bool plane_in_camera(const Pose& cMo, const Eigen::Vector3d& n, double d, double
   const Eigen::Vector3d nc = cMo.topLeftCorner<3, 3>() * n;
   const double dc = d + nc.dot(cMo.topRightCorner<3, 1>());
   if (!(std::abs(dc) > 0.0) || !std::isfinite(dc) || !nc.allFinite()) return false;
-  for (int r = 0; r < 3; ++r) plane[r] = nc(r) / dc;
+  const Eigen::Vector3d p = nc / dc;
+  if (!p.allFinite()) return false;  // a plane nearly through the camera centre: 1/Z overflows
+  for (int r = 0; r < 3; ++r) plane[r] = p(r);
   return true;
 }
 

@@ -34,7 +34,7 @@ class LineFeature final : public Feature {
   /// (normalised; distinct) in the plane (A, B, C): rho >= 0 and theta in (-pi, pi].
   static std::array<double, 5> measure(double x1, double y1, double x2, double y2, double A, double B, double C);
   /// The same into m (5 doubles), noexcept and allocation-free (the simulator's LineSource
-  /// calls it every frame); false (m untouched) when the points coincide or are not finite.
+  /// calls it every frame); false (m untouched) when the points coincide or a value is not finite.
   static bool measure(double x1, double y1, double x2, double y2, double A, double B, double C, double* m) noexcept;
 
   std::unique_ptr<Feature> clone() const override { return std::make_unique<LineFeature>(*this); }

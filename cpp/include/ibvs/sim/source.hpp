@@ -90,7 +90,7 @@ class FeatureSource {
 
 /// The plane {X : n . X = d} of the target frame seen from pose cMo (camera <- target), as
 /// 1/Z = A x + B y + C of the camera's normalised coordinates: (A, B, C) = R n / (d + (R n) . t).
-/// False (plane untouched) when the plane passes through the camera centre or is not finite.
+/// False (plane untouched) when the plane passes through the camera centre or a value is not finite.
 bool plane_in_camera(const Pose& cMo, const Eigen::Vector3d& n, double d, double plane[3]) noexcept;
 
 /// An image line (LineFeature) through target points i and j: (rho, theta) from the
