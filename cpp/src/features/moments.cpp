@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
+#include <utility>
 #include <stdexcept>
 
 namespace ibvs {
@@ -132,9 +133,57 @@ Evaluation evaluate(const double* mm, MomentsFeature::Source source, MomentsFeat
   return out;
 }
 
+// Moments of n points / of the polygon through n vertices, vertex k = xy(k) (a pair): no allocation.
+template <class XY>
+Moments points_moments(Eigen::Index n, const XY& xy) noexcept {
+  Moments m{};
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto [x, y] = xy(k);
+    double xi = 1.0;
+    for (int i = 0; i <= 4; ++i, xi *= x) {
+      double yj = 1.0;
+      for (int j = 0; i + j <= 4; ++j, yj *= y) m[static_cast<std::size_t>(moment_index(i, j))] += xi * yj;
+    }
+  }
+  return m;
+}
+
+template <class XY>
+Moments polygon_moments(Eigen::Index n, const XY& xy) noexcept {
+  Moments m{};
+  for (Eigen::Index e = 0; e < n; ++e) {
+    const auto [x0, y0] = xy(e);
+    const auto [x1, y1] = xy((e + 1) % n);
+    const double cross = x0 * y1 - x1 * y0;
+    double p0[5], p1[5], q0[5], q1[5];  // powers of x0, x1, y0, y1
+    p0[0] = p1[0] = q0[0] = q1[0] = 1.0;
+    for (int k = 1; k <= 4; ++k) {
+      p0[k] = p0[k - 1] * x0;
+      p1[k] = p1[k - 1] * x1;
+      q0[k] = q0[k - 1] * y0;
+      q1[k] = q1[k - 1] * y1;
+    }
+    for (int p = 0; p <= 4; ++p)
+      for (int q = 0; p + q <= 4; ++q) {
+        double sum = 0.0;
+        for (int k = 0; k <= p; ++k)
+          for (int l = 0; l <= q; ++l)
+            sum += binomial[k + l][k] * binomial[p + q - k - l][q - l] * p1[k] * p0[p - k] * q1[l] * q0[q - l];
+        m[static_cast<std::size_t>(moment_index(p, q))] += cross * sum;
+      }
+  }
+  for (int p = 0; p <= 4; ++p)
+    for (int q = 0; p + q <= 4; ++q)
+      m[static_cast<std::size_t>(moment_index(p, q))] /= (p + q + 2.0) * (p + q + 1.0) * binomial[p + q][p];
+  if (m[0] < 0.0)
+    for (double& v : m) v = -v;  // a clockwise polygon
+  return m;
+}
+
 double wrap_half(double d) noexcept { return 0.5 * wrap_angle(2.0 * d); }  // into (-pi/2, pi/2]
 
 }  // namespace
+
 
 MomentsFeature::MomentsFeature(Source source, Invariants invariants, Alpha alpha, unsigned rows)
     : source_(source), invariants_(invariants), alpha_(alpha), rows_(rows), n_rows_(0) {
@@ -163,47 +212,11 @@ std::string MomentsFeature::describe() const {
 }
 
 Moments MomentsFeature::of_points(const Eigen::Ref<const Points>& xy) {
-  Moments m{};
-  for (Eigen::Index k = 0; k < xy.cols(); ++k) {
-    const double x = xy(0, k), y = xy(1, k);
-    double xi = 1.0;
-    for (int i = 0; i <= 4; ++i, xi *= x) {
-      double yj = 1.0;
-      for (int j = 0; i + j <= 4; ++j, yj *= y) m[static_cast<std::size_t>(moment_index(i, j))] += xi * yj;
-    }
-  }
-  return m;
+  return points_moments(xy.cols(), [&](Eigen::Index k) { return std::pair<double, double>(xy(0, k), xy(1, k)); });
 }
 
 Moments MomentsFeature::of_polygon(const Eigen::Ref<const Points>& xy) {
-  Moments m{};
-  const Eigen::Index n = xy.cols();
-  for (Eigen::Index e = 0; e < n; ++e) {
-    const double x0 = xy(0, e), y0 = xy(1, e), x1 = xy(0, (e + 1) % n), y1 = xy(1, (e + 1) % n);
-    const double cross = x0 * y1 - x1 * y0;
-    double p0[5], p1[5], q0[5], q1[5];  // powers of x0, x1, y0, y1
-    p0[0] = p1[0] = q0[0] = q1[0] = 1.0;
-    for (int k = 1; k <= 4; ++k) {
-      p0[k] = p0[k - 1] * x0;
-      p1[k] = p1[k - 1] * x1;
-      q0[k] = q0[k - 1] * y0;
-      q1[k] = q1[k - 1] * y1;
-    }
-    for (int p = 0; p <= 4; ++p)
-      for (int q = 0; p + q <= 4; ++q) {
-        double sum = 0.0;
-        for (int k = 0; k <= p; ++k)
-          for (int l = 0; l <= q; ++l)
-            sum += binomial[k + l][k] * binomial[p + q - k - l][q - l] * p1[k] * p0[p - k] * q1[l] * q0[q - l];
-        m[static_cast<std::size_t>(moment_index(p, q))] += cross * sum;
-      }
-  }
-  for (int p = 0; p <= 4; ++p)
-    for (int q = 0; p + q <= 4; ++q)
-      m[static_cast<std::size_t>(moment_index(p, q))] /= (p + q + 2.0) * (p + q + 1.0) * binomial[p + q][p];
-  if (m[0] < 0.0)
-    for (double& v : m) v = -v;  // a clockwise polygon
-  return m;
+  return polygon_moments(xy.cols(), [&](Eigen::Index k) { return std::pair<double, double>(xy(0, k), xy(1, k)); });
 }
 
 double MomentsFeature::area(const double* m, Source source) noexcept {
@@ -245,9 +258,8 @@ std::array<double, 20> MomentsFeature::project(const Eigen::Ref<const Eigen::Mat
       throw std::invalid_argument("ibvs: moments: the points are not on one plane");
   const double d = normal.dot(c);
   if (!(std::abs(d) > 1e-12 * c.norm())) throw std::invalid_argument("ibvs: moments: the plane passes through the camera centre");
-  Points xy(2, n);
-  for (Eigen::Index k = 0; k < n; ++k) xy.col(k) = P.col(k).head<2>() / P(2, k);
-  const Moments m = source == Source::region ? of_polygon(xy) : of_points(xy);
+  const auto image = [&](Eigen::Index k) { return std::pair<double, double>(P(0, k) / P(2, k), P(1, k) / P(2, k)); };
+  const Moments m = source == Source::region ? polygon_moments(n, image) : points_moments(n, image);
   return measure(m, source, a_desired, depth_desired, normal.x() / d, normal.y() / d, normal.z() / d);
 }
 
