@@ -94,16 +94,19 @@ binary image, ibvs.vision.image_moments().)")
            py::arg("source") = "region", py::arg("invariants") = "p", py::arg("alpha") = "third_order",
            py::arg("rows") = py::none())
       .def_property_readonly("source",
-                             [](const MomentsFeature& f) { return f.source() == Src::region ? "region" : "points"; })
+                             [](const MomentsFeature& f) { return f.source() == Src::region ? "region" : "points"; },
+                             "\"region\" (moments are integrals over the object) or \"points\" (sums over discrete points).")
       .def_property_readonly("invariants",
                              [](const MomentsFeature& f) {
                                return f.invariants() == MomentsFeature::Invariants::p ? "p" : "s";
-                             })
+                             },
+                             "The pair of invariants for wx, wy: \"p\" (px, py) or \"s\" (sx, sy).")
       .def_property_readonly("alpha",
                              [](const MomentsFeature& f) {
                                return f.alpha_kind() == MomentsFeature::Alpha::third_order ? "third_order"
                                                                                            : "second_order";
-                             })
+                             },
+                             "The orientation: \"second_order\" (modulo pi) or \"third_order\" (over the full turn).")
       .def_property_readonly("row_names",
                              [](const MomentsFeature& f) {
                                std::vector<std::string> names;

@@ -381,11 +381,14 @@ class MomentsFeature(Feature):
         rows: Sequence[str] | None = None,
     ) -> None: ...
     @property
-    def source(self) -> str: ...
+    def source(self) -> str:
+        """"region" (moments are integrals over the object) or "points" (sums over discrete points)."""
     @property
-    def invariants(self) -> str: ...
+    def invariants(self) -> str:
+        """The pair of invariants for wx, wy: "p" (px, py) or "s" (sx, sy)."""
     @property
-    def alpha(self) -> str: ...
+    def alpha(self) -> str:
+        """The orientation: "second_order" (modulo pi) or "third_order" (over the full turn)."""
     @property
     def row_names(self) -> List[str]:
         """The selected rows, in order."""

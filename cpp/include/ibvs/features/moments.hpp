@@ -9,26 +9,32 @@
 // centred moments mu_pq, with c1 = mu20 - mu02, s1 = 2 mu11, c2 = mu03 - 3 mu21,
 // s2 = mu30 - 3 mu12, c3 = c1^2 - s1^2, s3 = 2 s1 c1, I1 = c1^2 + s1^2,
 // I2 = c2^2 + s2^2, I3 = mu20 + mu02:
-//   Invariants::p:  px = I1 / I3^2,  py = a I2 / I3^3        (rotation invariant; non-symmetric objects)
+//   Invariants::p:  px = I1 / I3^2,  py = a I2 / I3^3
+//     rotation invariant, hence decoupled from wz: a turn about the optical axis changes alpha
+//     alone (the half-turn test). ViSP's vpMomentCInvariant names them for non-symmetric objects:
+//     for an object with an axis of symmetry their rows lose wx or wy at the parallel pose (rank 5),
+//     and for a centrally symmetric one (py = 0, px constant) both.
 //   Invariants::s:  sx = (c2 c3 + s2 s3) / K,  sy = (s2 c3 - c2 s3) / K,  K = I1 I3^(3/2) / sqrt(a)
-//                   (they turn with the object, by -theta when it turns by theta; ViSP's
-//                   vpMomentCInvariant documents them as the choice for symmetric objects)
+//     for symmetric objects (ViSP's documentation; full rank for a kite, an isosceles triangle, a
+//     rectangle): they turn with the object (by -theta when it turns by theta), so a large turn
+//     about the optical axis couples them with wz and the law leaves the axis (docs/moments.md).
 // and two orientations:
 //   Alpha::second_order: alpha = atan2(2 mu11, mu20 - mu02) / 2 (Chaumette 2004, Sec. V), the
 //     direction of the principal axis: defined modulo pi (its error wrapped into (-pi/2, pi/2]) and
 //     undefined when I1 = 0 (mu20 = mu02, mu11 = 0: a square, a disc, a regular polygon).
 //   Alpha::third_order: the same axis oriented by the third-order moments over the full turn, in
-//     (-pi, pi] (the disambiguation of Tahri & Chaumette 2005 and ViSP's vpMomentAlpha): of alpha and
-//     alpha + pi, the one whose rotated third-order moment Re(z3 e^{-3 i alpha}) is > 0, with
+//     (-pi, pi] (ViSP's vpMomentAlpha flips alpha by pi when the third-order moments disagree in
+//     sign with a reference's; here a fixed rule needs no reference): of alpha and alpha + pi, the
+//     one whose rotated third-order moment Re(z3 e^{-3 i alpha}) is > 0, with
 //     z3 = (mu30 - 3 mu12) + i (3 mu21 - mu03); its error is wrapped into (-pi, pi]. Undefined, as
 //     well, where that moment vanishes: centrally symmetric objects (a rectangle, an ellipse,
 //     a square) have all their odd centred moments 0. Use it for non-symmetric objects, so that a
 //     rotation about the optical axis beyond pi/2 is not taken for its complement.
 // An undefined quantity of a selected row is refused (check()); leave the row out (`rows`) when
-// the object's symmetry makes it undefined. The invariants need the third-order moments too, so a
-// centrally symmetric object gives py = 0, sx = sy = 0: no control of wx, wy from them.
+// the object's symmetry makes it undefined (alpha of a square; the S invariants of a square too).
 //
-// Interaction matrices. Of a moment m_ij (i + j <= 3), for the plane 1/Z = A x + B y + C:
+// Interaction matrices (equation numbers as cited from the papers' published versions; the tests
+// check the formulas themselves). Of a moment m_ij (i + j <= 3), for the plane 1/Z = A x + B y + C:
 //  * a region (m_ij = integral of x^i y^j over the object; Chaumette 2004, eq. (13)):
 //      vx = -i (A m_ij + B m_{i-1,j+1} + C m_{i-1,j}) - A m_ij
 //      vy = -j (A m_{i+1,j-1} + B m_ij + C m_{i,j-1}) - B m_ij
