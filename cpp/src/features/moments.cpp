@@ -83,21 +83,14 @@ Evaluation evaluate(const double* mm, MomentsFeature::Source source, MomentsFeat
     }
   Evaluation out;
   const Dual xg = m[1][0] / m[0][0], yg = m[0][1] / m[0][0];
-  // Centred moments mu_pq = sum_k sum_l C(p,k) C(q,l) (-xg)^(p-k) (-yg)^(q-l) m_kl.
-  Dual px[4], py[4];  // (-xg)^k, (-yg)^k
-  px[0].v = py[0].v = 1.0;
-  for (int k = 1; k <= 3; ++k) {
-    px[k] = px[k - 1] * (-1.0 * xg);
-    py[k] = py[k - 1] * (-1.0 * yg);
-  }
-  const auto mu = [&](int p, int q) {
-    Dual sum;
-    for (int k = 0; k <= p; ++k)
-      for (int l = 0; l <= q; ++l) sum = sum + (binomial[p][k] * binomial[q][l]) * (px[p - k] * py[q - l] * m[k][l]);
-    return sum;
-  };
-  const Dual mu20 = mu(2, 0), mu11 = mu(1, 1), mu02 = mu(0, 2);
-  const Dual mu30 = mu(3, 0), mu21 = mu(2, 1), mu12 = mu(1, 2), mu03 = mu(0, 3);
+  // Centred moments from the raw ones (the binomial expansion of (x - xg)^p (y - yg)^q, with
+  // m10 = xg m00, m01 = yg m00).
+  const Dual xm10 = xg * m[1][0], ym01 = yg * m[0][1], xg2 = xg * xg, yg2 = yg * yg;
+  const Dual mu20 = m[2][0] - xm10, mu11 = m[1][1] - xg * m[0][1], mu02 = m[0][2] - ym01;
+  const Dual mu30 = m[3][0] - 3.0 * (xg * m[2][0]) + 2.0 * (xg2 * m[1][0]);
+  const Dual mu21 = m[2][1] - 2.0 * (xg * m[1][1]) - yg * m[2][0] + 2.0 * (xg2 * m[0][1]);
+  const Dual mu12 = m[1][2] - 2.0 * (yg * m[1][1]) - xg * m[0][2] + 2.0 * (yg2 * m[1][0]);
+  const Dual mu03 = m[0][3] - 3.0 * (yg * m[0][2]) + 2.0 * (yg2 * m[0][1]);
   const Dual I3 = mu20 + mu02;
   const Dual a = region ? m[0][0] : I3;
   out.a = a.v;
@@ -269,12 +262,14 @@ const char* MomentsFeature::check(const double* m, int& entry) const noexcept {
   entry = 0;
   if (!(m[0] > 0.0)) return "m00 must be > 0 (an object of zero area, or no points)";
   if (m[0] > max_points) return "m00 must be at most max_points";
-  for (int n = 1; n <= 4; ++n)
+  double bound = 2.0 * m[0];  // 2 m00 10^n for the moments of order n
+  for (int n = 1; n <= 4; ++n) {
+    bound *= max_normalized_coordinate;
     for (int j = 0; j <= n; ++j) {
       entry = moment_index(n - j, j);
-      if (std::abs(m[entry]) > 2.0 * std::pow(max_normalized_coordinate, n) * m[0])
-        return "is beyond the normalised-coordinate limit (|m_ij| <= 2 m00 10^(i+j))";
+      if (std::abs(m[entry]) > bound) return "is beyond the normalised-coordinate limit (|m_ij| <= 2 m00 10^(i+j))";
     }
+  }
   entry = 15;
   if (!(m[15] > 0.0 && m[15] <= 1e12)) return "the goal's area a* must be in (0, 1e12]";
   entry = 16;
