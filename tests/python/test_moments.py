@@ -64,6 +64,11 @@ def test_binary_image_moments_through_cv2(rng):
     mask = np.zeros((480, 640), np.uint8)
     cv2.fillPoly(mask, [np.round(poly_px).astype(np.int32)], 255)
     ours = ibvs.vision.image_moments(mask, camera)
+    # Exactly the pixel sums in normalised coordinates (each pixel one point at its centre, area 1/(px py)).
+    rows, cols = np.nonzero(mask)
+    x, y = (cols - 320.0) / 800.0, (rows - 240.0) / 800.0
+    direct = [np.sum(x ** (n - j) * y**j) / 800.0**2 for n in range(5) for j in range(n + 1)]
+    assert np.allclose(ours, direct, rtol=1e-9, atol=1e-15)
     xy = (poly_px - [320.0, 240.0]) / 800.0
     exact = ibvs.MomentsFeature.of_polygon(xy)
     assert ours[0] == pytest.approx(exact[0], rel=0.02)  # the area, to the pixel border
