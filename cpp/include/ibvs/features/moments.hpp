@@ -50,7 +50,8 @@
 // tests check them against central differences of the projection and against the published
 // closed forms of xn, yn, an and alpha (Tahri & Chaumette 2005, as ViSP's
 // vpFeatureMomentGravityCenterNormalized, vpFeatureMomentAreaNormalized and vpFeatureMomentAlpha
-// write them).
+// write them) and the centred moments' interaction matrices (vpFeatureMomentCentered) chained
+// through the invariants.
 //
 // Measurement (20 doubles): the raw moments m_ij of order 0 to 4 (order 4 enters the interaction
 // matrix of order 3), indexed by moment_index(i, j) = n (n + 1) / 2 + j with n = i + j:
