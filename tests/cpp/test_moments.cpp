@@ -342,21 +342,30 @@ void half_turn_about_the_axis() {
   }
 }
 
+// From a general start (a few cm off, tilted by about 10 degrees, turned by 29 degrees about the
+// axis), seven-vertex random objects 0.3 m wide at 0.8 m: the law with the mean interaction matrix
+// converges for at least three objects in four, with every source and pair of invariants (not for
+// all: docs/moments.md gives the shares with each interaction matrix and a smaller object).
 void general_start_converges() {
   std::mt19937_64 rng(ibvs_test::seed + 8);
-  const Eigen::Matrix3Xd Pw = star(rng, 7, 0.15);
-  for (Src src : {Src::region, Src::points})
-    for (Inv inv : {Inv::p, Inv::s}) {
-      Twist start;
-      start << 0.05, -0.04, 0.0, 0.15, -0.1, 0.5;
-      Pose T = se3_exp(start);
-      T(2, 3) = -1.1;
-      const MomentsFeature f(src, inv, Alp::third_order);
-      const Run r = servo_run(f, Pw, T, 0.8, InteractionMatrix::desired);
-      std::printf("%s from a general start: frame %d, %.2g m and %.2g rad from the goal\n", f.describe().c_str(),
-                  r.frames, r.dp, r.dr);
-      CHECK(r.frames < 4000 && r.dp < 1e-6 && r.dr < 1e-6);
-    }
+  const int shapes = 12;
+  int converged[2][2] = {};
+  for (int k = 0; k < shapes; ++k) {
+    const Eigen::Matrix3Xd Pw = star(rng, 7, 0.3);
+    for (Src src : {Src::region, Src::points})
+      for (Inv inv : {Inv::p, Inv::s}) {
+        Twist start;
+        start << 0.05, -0.04, 0.0, 0.15, -0.1, 0.5;
+        Pose T = se3_exp(start);
+        T(2, 3) = -1.1;
+        const Run r = servo_run(MomentsFeature(src, inv, Alp::third_order), Pw, T, 0.8, InteractionMatrix::mean);
+        converged[src == Src::points][inv == Inv::s] += r.frames < 4000 && r.dp < 1e-6 && r.dr < 1e-6;
+      }
+  }
+  std::printf("general start, mean interaction matrix, %d objects: converged region p %d, region s %d, points p %d, "
+              "points s %d\n", shapes, converged[0][0], converged[0][1], converged[1][0], converged[1][1]);
+  for (auto& c : converged)
+    for (int n : c) CHECK(4 * n >= 3 * shapes);  // measured: 9 to 12 of 12 over seeds 1 to 5 and 42
 }
 
 void refusals() {
