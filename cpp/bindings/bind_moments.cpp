@@ -95,7 +95,8 @@ binary image, ibvs.vision.image_moments().)")
            py::arg("rows") = py::none())
       .def_property_readonly("source",
                              [](const MomentsFeature& f) { return f.source() == Src::region ? "region" : "points"; },
-                             "\"region\" (moments are integrals over the object) or \"points\" (sums over discrete points).")
+                             "\"region\" (moments are integrals over the object) or \"points\" (sums over "
+                             "discrete points).")
       .def_property_readonly("invariants",
                              [](const MomentsFeature& f) {
                                return f.invariants() == MomentsFeature::Invariants::p ? "p" : "s";
@@ -151,7 +152,8 @@ binary image, ibvs.vision.image_moments().)")
           "project",
           [](py::handle P, const std::string& source, py::handle area_desired, py::handle depth_desired) {
             const CArray a = as_array(P, "points");
-            if (a.ndim() != 2 || a.shape(1) != 3) throw py::value_error("points must be an array (N, 3) in the camera frame");
+            if (a.ndim() != 2 || a.shape(1) != 3)
+              throw py::value_error("points must be an array (N, 3) in the camera frame");
             Eigen::Matrix3Xd Q(3, a.shape(0));
             for (py::ssize_t k = 0; k < a.shape(0); ++k)
               for (int i = 0; i < 3; ++i) Q(i, k) = a.at(k, i);

@@ -37,7 +37,8 @@ def converges(feature, Pw, jacobian, Zd=0.8):
             m = ibvs.MomentsFeature.project(in_camera(T, Pw), feature.source, md[15], Zd)
         except ValueError:  # the object left the camera's front
             return False
-        r = servo.update(none, np.zeros(0), none, depth_desired=np.zeros(0), measurements=[m], measurements_desired=[md])
+        r = servo.update(none, np.zeros(0), none, depth_desired=np.zeros(0), measurements=[m],
+                         measurements_desired=[md])
         if r.error_norm < 1e-9:
             break
         T = T @ ibvs.se3_exp(r.velocity / 60.0)
@@ -55,8 +56,9 @@ def main() -> None:
     print("|---|---|" + "---:|" * len(choices))
     for size in (0.15, 0.3):
         for jacobian in ("current", "desired", "mean"):
-            counts = [sum(converges(ibvs.MomentsFeature(s, i), star(np.random.default_rng(k), 7, size), jacobian)
-                          for k in range(n)) for s, i in choices]
+            objects = [star(np.random.default_rng(k), 7, size) for k in range(n)]
+            counts = [sum(converges(ibvs.MomentsFeature(s, i), Pw, jacobian) for Pw in objects)
+                      for s, i in choices]
             print(f"| {size:.2f} | {jacobian} | " + " | ".join(f"{c}/{n}" for c in counts) + " |")
 
 

@@ -152,8 +152,8 @@ Eigen::Matrix<double, 4, 6> visp_rows(const std::array<double, 20>& m, bool regi
   const double beta = region ? 5 : 2, d = (mu20 - mu02) * (mu20 - mu02) + 4 * mu11 * mu11, DA = mu20 + mu02;
   const double Avx = mu11 * DA * A / d + (DA * mu02 + 0.5 * d - 0.5 * DA * DA) * B / d;
   const double Avy = (DA * mu02 - 0.5 * d - 0.5 * DA * DA) * A / d - B * mu11 * DA / d;
-  const double Awx = (beta * (mu12 * (mu20 - mu02) + mu11 * (mu03 - mu21)) + xg * (mu02 * (mu20 - mu02) - 2 * mu11 * mu11) +
-                      yg * mu11 * (mu20 + mu02)) / d;
+  const double Awx = (beta * (mu12 * (mu20 - mu02) + mu11 * (mu03 - mu21)) +
+                      xg * (mu02 * (mu20 - mu02) - 2 * mu11 * mu11) + yg * mu11 * (mu20 + mu02)) / d;
   const double Awy = (beta * (mu21 * (mu02 - mu20) + mu11 * (mu30 - mu12)) + xg * mu11 * (mu20 + mu02) +
                       yg * (mu20 * (mu02 - mu20) - 2 * mu11 * mu11)) / d;
   V.row(3) << Avx, Avy, B * Awx - A * Awy, Awx, Awy, -1.0;

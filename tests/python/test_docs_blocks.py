@@ -142,10 +142,11 @@ PRINTS = {
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
     ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
     ("docs/moments.md", "def turn(feature, degrees"): [
-        "| p, third_order | 0.0 deg, 0.0 mm from the goal, z range 0.0 mm | 0.0 deg, 0.0 mm from the goal, z range 0.0 mm |",
+        "| p, third_order | 0.0 deg, 0.0 mm from the goal, z range 0.0 mm | 0.0 deg, 0.0 mm from the goal, z range 0.0 mm",
         "| 180.0 deg, 0.0 mm from the goal"],
     ("docs/moments.md", "docs/scripts/moments_starts.py"): ["| radius up to (m) | interaction matrix | region, p |"],
-    ("docs/moments.md", "kite (an axis of symmetry)"): ["| kite (an axis of symmetry) | 5, ", "| rectangle (central symmetry) | 4, 0 | 6, "],
+    ("docs/moments.md", "kite (an axis of symmetry)"): [
+        "| kite (an axis of symmetry) | 5, ", "| rectangle (central symmetry) | 4, 0 | 6, "],
 }
 
 

@@ -234,7 +234,8 @@ std::array<double, 20> MomentsFeature::project(const Eigen::Ref<const Eigen::Mat
   const Eigen::Index n = P.cols();
   if (n < 3) throw std::invalid_argument("ibvs: moments: project needs at least 3 points");
   if (!P.allFinite()) throw std::invalid_argument("ibvs: moments: the points must be finite");
-  if (!(P.row(2).minCoeff() >= min_depth)) throw std::invalid_argument("ibvs: moments: every point must be in front of the camera (Z >= min_depth)");
+  if (!(P.row(2).minCoeff() >= min_depth))
+    throw std::invalid_argument("ibvs: moments: every point must be in front of the camera (Z >= min_depth)");
   // The plane n . X = d through the points: the scatter's eigenvector of least eigenvalue.
   const Eigen::Vector3d c = P.rowwise().mean();
   Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
@@ -250,7 +251,8 @@ std::array<double, 20> MomentsFeature::project(const Eigen::Ref<const Eigen::Mat
     if (std::abs(normal.dot(P.col(k) - c)) > 1e-9 * extent)
       throw std::invalid_argument("ibvs: moments: the points are not on one plane");
   const double d = normal.dot(c);
-  if (!(std::abs(d) > 1e-12 * c.norm())) throw std::invalid_argument("ibvs: moments: the plane passes through the camera centre");
+  if (!(std::abs(d) > 1e-12 * c.norm()))
+    throw std::invalid_argument("ibvs: moments: the plane passes through the camera centre");
   const auto image = [&](Eigen::Index k) { return std::pair<double, double>(P(0, k) / P(2, k), P(1, k) / P(2, k)); };
   const Moments m = source == Source::region ? polygon_moments(n, image) : points_moments(n, image);
   return measure(m, source, a_desired, depth_desired, normal.x() / d, normal.y() / d, normal.z() / d);
