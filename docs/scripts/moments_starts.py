@@ -1,4 +1,4 @@
-"""Image moments from a general start (docs/moments.md): converged share by interaction matrix.
+"""Image moments from a general start (docs/features.md): converged share by interaction matrix.
 
 Random seven-vertex star-shaped objects (seeds 0 .. shapes-1) of two sizes, in the plane z = 0; the goal: the
 camera 0.8 m in front of them, parallel; the start: 5 cm and 4 cm off, tilted by 0.15 and -0.1 rad, turned by

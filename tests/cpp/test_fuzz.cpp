@@ -1,4 +1,5 @@
-// Fuzz target over Layout, Servo (options, validate, update), PartitionedServo, MomentsFeature tasks,
+// Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
+// validate, update), PartitionedServo,
 // damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
@@ -15,6 +16,11 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/task.hpp"
+#include "ibvs/features/ellipse.hpp"
+#include "ibvs/features/line.hpp"
+#include "ibvs/features/moments.hpp"
+#include "ibvs/features/segment.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -208,43 +214,172 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
-// MomentsFeature (features/moments.hpp): a measurement from a projected 3-D object or from raw
-// doubles, any options; validate() throws iff update() refuses, accepted ones are finite.
-void fuzz_moments(Bytes& b) {
-  using MF = MomentsFeature;
-  const MF::Source src = b.byte() & 1 ? MF::Source::points : MF::Source::region;
-  const unsigned rows = 1u + b.byte() % 63u;
-  const MF f(src, b.byte() & 1 ? MF::Invariants::s : MF::Invariants::p,
-             b.byte() & 1 ? MF::Alpha::second_order : MF::Alpha::third_order, rows);
-  Task task;
-  task.add(f);
-  Servo servo(task);
-  ServoInput in(task);
-  ServoOutput out(task);
-  for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
-    if (b.byte() < 160) {
-      Eigen::Matrix3Xd P(3, b.small(3, 7));
-      for (Eigen::Index k = 0; k < P.cols(); ++k) P.col(k) << b.coordinate(), b.coordinate(), b.depth();
-      try {
-        const auto v = MF::project(P, src, b.byte() < 128 ? 0.0 : b.real(), b.depth());
-        *m = Eigen::Map<const Eigen::VectorXd>(v.data(), 20);
-      } catch (const std::invalid_argument&) {
-        return;
-      }
-    } else {
-      for (Eigen::Index i = 0; i < 20; ++i) (*m)(i) = b.real();
+
+// ---- Tasks of feature blocks --------------------------------------------------
+// Each kind the task fuzzer draws from: a block and a measurement of it, mostly
+// plausible (so that the accepted path is reached), sometimes hostile (every
+// entry can be any double). A new feature kind adds one entry to fuzz_kinds.
+struct FuzzKind {
+  std::unique_ptr<Feature> (*make)(Bytes&);
+  void (*measure)(Bytes&, double* m);  // Feature::size() doubles
+};
+
+void line_measurement(Bytes& b, double* m) {
+  m[0] = b.coordinate();
+  m[1] = b.byte() < 200 ? (b.byte() - 127.5) / 20.0 : b.real();
+  for (int i = 2; i < 4; ++i) m[i] = b.byte() < 200 ? b.coordinate() : b.real();
+  m[4] = 1.0 / b.depth();
+}
+
+
+// The segment and the ellipse (features/segment.hpp, ellipse.hpp): measurements from their own
+// measurement functions, on geometry in view or on any input (what they return must then pass
+// check(); what they cannot measure they refuse with std::invalid_argument), then entries
+// sometimes overwritten with hostile doubles.
+Eigen::Vector3d in_view(Bytes& b) {
+  const double z = 0.2 + b.byte() / 40.0;
+  return {(b.byte() - 127.5) / 400.0 * z, (b.byte() - 127.5) / 400.0 * z, z};
+}
+
+template <std::size_t N>
+void measured(Bytes& b, const Feature& f, std::array<double, N> (*from)(Bytes&), double* m) {
+  std::array<double, N> v;
+  try {
+    v = from(b);
+    int entry = 0;
+    ibvs_test::report(f.check(v.data(), entry) == nullptr, "a measurement function's result is accepted", __FILE__,
+                      __LINE__, f.describe());
+  } catch (const std::invalid_argument&) {
+    for (double& x : v) x = b.real();
+  }
+  std::copy(v.begin(), v.end(), m);
+  while (b.byte() > 230) m[b.small(0, static_cast<int>(N) - 1)] = b.byte() < 128 ? b.real() : b.coordinate();
+}
+
+void segment_measurement(Bytes& b, double* m) {
+  measured<6>(b, SegmentFeature(), [](Bytes& b) {
+    if (b.byte() < 200) return SegmentFeature::project(in_view(b), in_view(b));
+    return SegmentFeature::measure(b.coordinate(), b.coordinate(), b.depth(), b.coordinate(), b.coordinate(),
+                                   b.depth());
+  }, m);
+}
+
+void ellipse_measurement(Bytes& b, double* m) {
+  measured<8>(b, EllipseFeature(), [](Bytes& b) {
+    const int how = b.small(0, 3);
+    if (how <= 1) {  // a circle in view, facing the camera
+      const Eigen::Vector3d c = in_view(b), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
+      return EllipseFeature::project_circle(c, n, c.z() * (0.005 + b.byte() / 1000.0));
+    }
+    if (how == 2)
+      return EllipseFeature::project_circle({b.coordinate(), b.coordinate(), b.depth()},
+                                            {b.coordinate(), b.coordinate(), b.real()}, b.byte() < 128 ? b.real() : 0.1);
+    std::array<double, 6> mo;
+    for (double& x : mo) x = b.byte() < 200 ? b.coordinate() : b.real();
+    return EllipseFeature::measure_moments(mo, b.coordinate(), b.coordinate(), 1.0 / b.depth());
+  }, m);
+}
+
+// Image moments (features/moments.hpp): the projection of a random planar object (a polygon or a
+// point set, mostly in view; project() refuses what it cannot measure) or any 20 doubles, then
+// entries sometimes overwritten with hostile ones. A projection need not be accepted (a flat or
+// symmetric object is refused by check()), so its result is only fed to the servo.
+void moments_measurement(Bytes& b, double* m) {
+  std::array<double, 20> v;
+  bool made = false;
+  if (b.byte() < 200) {
+    Eigen::Matrix3Xd P(3, b.small(3, 7));
+    const Eigen::Vector3d c = in_view(b), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
+    const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u).normalized();
+    for (Eigen::Index k = 0; k < P.cols(); ++k)  // on the plane through c with normal n
+      P.col(k) = c + 0.1 * c.z() * ((b.byte() - 127.5) / 128.0 * u + (b.byte() - 127.5) / 128.0 * w);
+    try {
+      v = MomentsFeature::project(P, b.byte() & 1 ? MomentsFeature::Source::points : MomentsFeature::Source::region,
+                                  b.byte() < 200 ? 0.0 : b.real(), b.depth());
+      made = true;
+    } catch (const std::invalid_argument&) {
     }
   }
-  bool valid = true;
+  if (!made)
+    for (double& x : v) x = b.real();
+  std::copy(v.begin(), v.end(), m);
+  while (b.byte() > 230) m[b.small(0, 19)] = b.byte() < 128 ? b.real() : b.coordinate();
+}
+
+MomentsFeature moments_kind(Bytes& b) {
+  using MF = MomentsFeature;
+  const MF::Source source = b.byte() & 1 ? MF::Source::points : MF::Source::region;
+  const MF::Invariants invariants = b.byte() & 1 ? MF::Invariants::s : MF::Invariants::p;
+  return MF(source, invariants, b.byte() & 1 ? MF::Alpha::second_order : MF::Alpha::third_order, 1u + b.byte() % 63u);
+}
+
+const FuzzKind fuzz_kinds[] = {
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<SegmentFeature>(b.byte() < 160); },
+     segment_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<EllipseFeature>(); }, ellipse_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<MomentsFeature>(moments_kind(b)); },
+     moments_measurement},
+};
+
+void fuzz_task(Bytes& b) {
+  std::optional<Task> task;
+  std::vector<const FuzzKind*> kind_of;  // the kind of each block, to draw its measurements
   try {
-    servo.validate(in);
+    const int n = b.small(0, 4);
+    task.emplace(n == 0 ? Task() : Task(b.byte() < 128 ? Layout::cartesian(n) : Layout::polar(n)));
+    const int blocks = b.small(0, 3);
+    constexpr int kinds = static_cast<int>(sizeof fuzz_kinds / sizeof fuzz_kinds[0]);
+    for (int k = 0; k < blocks; ++k) {
+      const FuzzKind& kind = fuzz_kinds[b.small(0, kinds - 1)];
+      task->add(*kind.make(b), b.byte() < 200 ? 1.0 + b.byte() / 64.0 : b.real());
+      kind_of.push_back(&kind);
+    }
+    if (n > 0 && b.byte() > 200) {
+      std::vector<double> w(static_cast<std::size_t>(n));
+      for (double& x : w) x = b.byte() < 200 ? 0.5 + b.byte() / 100.0 : b.real();
+      task->set_point_weights(w);
+    }
+    if (b.byte() > 180) {
+      Dof dof{};
+      for (bool& d : dof) d = b.byte() < 160;
+      task->set_dof(dof);
+    }
   } catch (const std::invalid_argument&) {
-    valid = false;
+    return;
   }
-  const Status st = servo.update(in, out);
-  ibvs_test::report(valid == (st != Status::invalid_input), "moments: validate() throws iff update() refuses",
-                    __FILE__, __LINE__, f.describe());
-  check_output(out, st, true, "Servo::update (moments)");
+  ServoOptions o;
+  o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
+  o.diagnostics = b.byte() < 200;
+  if (b.byte() > 200) o.max_linear_speed = b.real();
+  std::optional<Servo> servo;
+  try {
+    servo.emplace(*task, o);
+  } catch (const std::invalid_argument&) {
+    return;  // no block (an empty Task) or bad options: refused at construction
+  }
+  ServoInput in(*task);
+  ServoOutput out(*task);
+  for (int frame = 0; frame < 3; ++frame) {
+    for (Eigen::Index i = 0; i < in.uv.size(); ++i) in.uv.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
+    for (Eigen::Index i = 0; i < in.depth_desired.size(); ++i) in.depth_desired(i) = b.depth();
+    for (int k = 0; k < task->n_features(); ++k) {
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements.data() + task->offset(k));
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements_desired.data() + task->offset(k));
+    }
+    bool valid = true;
+    try {
+      servo->validate(in);
+    } catch (const std::invalid_argument&) {
+      valid = false;
+    }
+    const Status st = servo->update(in, out);
+    ibvs_test::report(valid == (st != Status::invalid_input), "task: validate() throws iff update() refuses",
+                      __FILE__, __LINE__, task->describe());
+    check_output(out, st, o.diagnostics, "Servo(Task)::update");
+  }
 }
 
 }  // namespace
@@ -254,7 +389,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
-    case 3: fuzz_moments(b); break;
+    case 2: fuzz_task(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

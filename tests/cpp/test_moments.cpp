@@ -345,7 +345,7 @@ void half_turn_about_the_axis() {
 // From a general start (a few cm off, tilted by about 10 degrees, turned by 29 degrees about the
 // axis), seven-vertex random objects of radius up to 0.3 m at 0.8 m: the law with the mean interaction matrix
 // converges for at least three objects in four, with every source and pair of invariants (not for
-// all: docs/moments.md gives the shares with each interaction matrix and a smaller object).
+// all: docs/features.md gives the shares with each interaction matrix and a smaller object).
 void general_start_converges() {
   std::mt19937_64 rng(ibvs_test::seed + 8);
   const int shapes = 12;

@@ -46,7 +46,7 @@ constexpr double binomial[9][9] = {{1},
                                    {1, 7, 21, 35, 35, 21, 7, 1},
                                    {1, 8, 28, 56, 70, 56, 28, 8, 1}};
 
-constexpr double max_entry = 1e150;  // values and interaction entries beyond it are refused
+constexpr double max_entry = 1e20;  // values and interaction entries beyond it are refused (J^T J stays finite)
 
 // Everything a measurement gives: the six features (all of them, selected or not) with their
 // interaction rows, and the quantities that decide what is refused.
@@ -291,7 +291,7 @@ const char* MomentsFeature::check(const double* m, int& entry) const noexcept {
     return "the third-order orientation is undefined (a centrally symmetric object: use Alpha::second_order)";
   for (unsigned b = 0; b < 6; ++b)
     if (((rows_ >> b) & 1u) && (!(std::abs(ev.s[b].v) <= max_entry) || !(ev.s[b].d.cwiseAbs().maxCoeff() <= max_entry)))
-      return "gives values or interaction entries beyond 1e150 (not the moments of an object)";
+      return "gives values or interaction entries beyond 1e20 (not the moments of an object)";
   return nullptr;
 }
 

@@ -17,7 +17,7 @@
 //   Invariants::s:  sx = (c2 c3 + s2 s3) / K,  sy = (s2 c3 - c2 s3) / K,  K = I1 I3^(3/2) / sqrt(a)
 //     for symmetric objects (ViSP's documentation; full rank for a kite, an isosceles triangle, a
 //     rectangle): they turn with the object (by -theta when it turns by theta), so a large turn
-//     about the optical axis couples them with wz and the law leaves the axis (docs/moments.md).
+//     about the optical axis couples them with wz and the law leaves the axis (docs/features.md).
 // and two orientations:
 //   Alpha::second_order: alpha = atan2(2 mu11, mu20 - mu02) / 2 (Chaumette 2004, Sec. V), the
 //     direction of the principal axis: defined modulo pi (its error wrapped into (-pi/2, pi/2]) and
@@ -64,7 +64,7 @@
 // (4 (mu20 mu02 - mu11^2) / I3^2 < 1e-9: collinear points, a zero-width region); an undefined
 // alpha or S invariant (I1 / I3^2 < 1e-12) or third-order orientation (|Re(z3 e^{-3 i alpha})|
 // sqrt(m00) / I3^(3/2) < 1e-9) when their row is selected; and any value or interaction entry
-// beyond 1e150 (a measurement that is not the moments of an object).
+// beyond 1e20 (a measurement that is not the moments of an object; the weighted J^T J stays finite).
 #pragma once
 
 #include "ibvs/feature.hpp"
