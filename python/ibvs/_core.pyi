@@ -432,6 +432,54 @@ class EllipseFeature(Feature):
         undistort first) or, camera None, in normalised coordinates; plane (A, B, C) of
         1/Z = A x + B y + C."""
 
+class MomentsFeature(Feature):
+    """Image moments of a planar object.
+
+    Tahri & Chaumette (IEEE T-RO 2005): rows xn, yn, an, r1, r2 (invariants "p": px, py, or "s":
+    sx, sy) and alpha ("second_order": modulo pi; "third_order": over the full turn). source
+    "region" (integrals) or "points" (sums). Measurement (20): m00..m04, a*, Z*, A, B, C.
+    """
+
+    def __init__(
+        self,
+        source: str = "region",
+        invariants: str = "p",
+        alpha: str = "third_order",
+        rows: Sequence[str] | None = None,
+    ) -> None: ...
+    @property
+    def source(self) -> str:
+        """"region" (moments are integrals over the object) or "points" (sums over discrete points)."""
+    @property
+    def invariants(self) -> str:
+        """The pair of invariants for wx, wy: "p" (px, py) or "s" (sx, sy)."""
+    @property
+    def alpha(self) -> str:
+        """The orientation: "second_order" (modulo pi) or "third_order" (over the full turn)."""
+    @property
+    def row_names(self) -> List[str]:
+        """The selected rows, in order."""
+    @staticmethod
+    def of_points(xy: _ArrayLike) -> _FloatArray:
+        """Moments m00..m04 (15,) of discrete image points (N, 2): sums of x^i y^j."""
+    @staticmethod
+    def of_polygon(xy: _ArrayLike) -> _FloatArray:
+        """Moments m00..m04 (15,) of the region inside a simple polygon (N, 2), either orientation."""
+    @staticmethod
+    def measure(
+        moments: _ArrayLike, plane: _ArrayLike, source: str = "region", area_desired: float = 0.0,
+        depth_desired: float = 1.0,
+    ) -> _FloatArray:
+        """The measurement (20,): moments, a*, Z*, plane. area_desired=0: the object's own area."""
+    @staticmethod
+    def project(
+        points: _ArrayLike, source: str = "region", area_desired: float = 0.0, depth_desired: float = 1.0
+    ) -> _FloatArray:
+        """The measurement (20,) of a 3-D planar polygon or point set (N, 3) in the camera frame."""
+    @staticmethod
+    def area(measurement: _ArrayLike, source: str = "region") -> float:
+        """The object's area a: m00 (region) or mu20 + mu02 (points)."""
+
 class Task:
     """What a Servo drives to zero: the points of a Layout, then feature blocks.
 

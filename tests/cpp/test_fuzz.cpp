@@ -23,6 +23,7 @@
 #include "ibvs/task.hpp"
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/moments.hpp"
 #include "ibvs/features/segment.hpp"
 
 #include <cstdint>
@@ -429,11 +430,46 @@ void ellipse_measurement(Bytes& b, double* m) {
   }, m);
 }
 
+// Image moments (features/moments.hpp): the projection of a random planar object (a polygon or a
+// point set, mostly in view; project() refuses what it cannot measure) or any 20 doubles, then
+// entries sometimes overwritten with hostile ones. A projection need not be accepted (a flat or
+// symmetric object is refused by check()), so its result is only fed to the servo.
+void moments_measurement(Bytes& b, double* m) {
+  std::array<double, 20> v;
+  bool made = false;
+  if (b.byte() < 200) {
+    Eigen::Matrix3Xd P(3, b.small(3, 7));
+    const Eigen::Vector3d c = in_view(b), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
+    const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u).normalized();
+    for (Eigen::Index k = 0; k < P.cols(); ++k)  // on the plane through c with normal n
+      P.col(k) = c + 0.1 * c.z() * ((b.byte() - 127.5) / 128.0 * u + (b.byte() - 127.5) / 128.0 * w);
+    try {
+      v = MomentsFeature::project(P, b.byte() & 1 ? MomentsFeature::Source::points : MomentsFeature::Source::region,
+                                  b.byte() < 200 ? 0.0 : b.real(), b.depth());
+      made = true;
+    } catch (const std::invalid_argument&) {
+    }
+  }
+  if (!made)
+    for (double& x : v) x = b.real();
+  std::copy(v.begin(), v.end(), m);
+  while (b.byte() > 230) m[b.small(0, 19)] = b.byte() < 128 ? b.real() : b.coordinate();
+}
+
+MomentsFeature moments_kind(Bytes& b) {
+  using MF = MomentsFeature;
+  const MF::Source source = b.byte() & 1 ? MF::Source::points : MF::Source::region;
+  const MF::Invariants invariants = b.byte() & 1 ? MF::Invariants::s : MF::Invariants::p;
+  return MF(source, invariants, b.byte() & 1 ? MF::Alpha::second_order : MF::Alpha::third_order, 1u + b.byte() % 63u);
+}
+
 const FuzzKind fuzz_kinds[] = {
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
     {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<SegmentFeature>(b.byte() < 160); },
      segment_measurement},
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<EllipseFeature>(); }, ellipse_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<MomentsFeature>(moments_kind(b)); },
+     moments_measurement},
 };
 
 void fuzz_task(Bytes& b) {

@@ -10,6 +10,7 @@
 #include "ibvs/features.hpp"
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/moments.hpp"
 #include "ibvs/features/segment.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/pinv.hpp"
