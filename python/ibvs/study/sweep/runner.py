@@ -25,7 +25,7 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
             **settings) -> tuple[Scenario, dict]:
     """The Scenario of sweep()'s arguments and the [sweep] options of a scenario file.
 
-    scenario: a Scenario, a built-in name ("free", "gantry"), a TOML file (str or Path ending
+    scenario: a Scenario, a built-in name ("free", "gantry", "arm"), a TOML file (str or Path ending
     in .toml), or None (world, default "free"). ranges and settings (gain, duration, depth,
     tolerance, tolerance_px, boundary_margin, boundary_gain, angle_wrap; None = the scenario's)
     override the scenario's; tolerance_px without tolerance replaces the scenario's tests by the
