@@ -166,8 +166,8 @@ def run(
     if tolerance_px is not None:
         tolerance_px = _real(tolerance_px, "tolerance_px")
         if not (math.isfinite(tolerance_px) and tolerance_px > 0):
-            raise ValueError(f"tolerance_px must be a finite number > 0 (measurement units: pixels), or None for no "
-                             f"pixel test, got {tolerance_px!r}")
+            raise ValueError(f"tolerance_px must be a finite number > 0 (measurement units: pixels; normalised units "
+                             f"for Camera.normalized), or None for no pixel test, got {tolerance_px!r}")
     if tolerance is not None:
         tolerance = _real(tolerance, "tolerance")
         if not (math.isfinite(tolerance) and tolerance >= 0):

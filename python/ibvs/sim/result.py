@@ -165,8 +165,8 @@ class Result:
     vision= sensor, e.g. an ibvs.vision.ImageSensor with its frames and timings; None by default).
 
     How convergence was judged: tolerance (the error norm had to be below it; None: not tested)
-    and tolerance_px (every measured point within this distance of its goal, measurement units;
-    None: not tested); measured_desired (N, 2) is the goal as the sensor measured it, what
+    and tolerance_px (every measured point within this distance of its goal, in measurement units:
+    pixels; normalised units for Camera.normalized; None: not tested); measured_desired (N, 2) is the goal as the sensor measured it, what
     pixel_error compares each frame's measurement with."""
 
     status: RunStatus
@@ -192,7 +192,8 @@ class Result:
     @property
     def pixel_error(self) -> np.ndarray:
         """(K,) the largest distance of a measured point from its goal's measurement at each
-        frame (measurement units: pixels; NaN where a point was not measured): what tolerance_px
+        frame (measurement units: pixels; normalised units for Camera.normalized; NaN where a point
+        was not measured): what tolerance_px
         is compared with."""
         h = self.history
         if h.measured is None or self.measured_desired is None:
