@@ -415,6 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """`python -m ibvs.bench [OPTIONS]` (sys.argv[1:] by default): run the benchmark and print its table, or one
+    JSON line with --json; --vision times the image loop instead. Returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
         argv = argv[1:]

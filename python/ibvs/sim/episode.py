@@ -12,6 +12,9 @@ from .._core import CameraModel, PartitionedServo, Servo
 from .._core import sim as _sim
 from .result import History, Metrics, Result, RunStatus, peak_speeds
 
+# What ibvs.sim re-exports (and documents); the other names here are its own helpers.
+__all__ = ["run"]
+
 # The simulator's parts under their ibvs.sim names (the native classes themselves).
 Camera = CameraModel  # the simulator's camera is the core's CameraModel (the same class)
 Target = _sim.Target

@@ -12,6 +12,9 @@ import numpy as np
 from .._core import CameraModel, Layout
 from .._core import sim as _sim
 
+# What ibvs.sim re-exports (and documents); the other names here are its own helpers.
+__all__ = ["OUTCOMES", "RunStatus", "Metrics", "History", "Result"]
+
 #: How an episode can end (the C++ Outcome enum, in its order).
 OUTCOMES = ("converged", "left_image", "behind_camera", "joint_limit", "singular", "diverged", "timeout",
             "target_backside", "collision", "lost_feature")

@@ -6,6 +6,9 @@ import numpy as np
 
 from .images import check_real, opencv
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["draw_points", "write_video"]
+
 
 def draw_points(image, detected=None, desired=None) -> np.ndarray:
     """An RGB copy of a grayscale image with the detected points (green crosses, numbered) and the

@@ -20,6 +20,9 @@ from .progress import Progress
 from .rows import RowWriter, load
 from .spec import MAX_EPISODES, MAX_JOBS, SweepSpec, check_int, episode_id
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["resolve", "sweep"]
+
 
 def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapping[str, tuple]] = None,
             **settings) -> tuple[Scenario, dict]:
