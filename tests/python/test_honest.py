@@ -325,3 +325,22 @@ def test_tolerance_px_is_in_measurement_units_everywhere():
     r = sim.run(ibvs.Servo(ibvs.Layout.stacked(4), gain=2.0), c.camera, c.target, c.start, c.goal, robot=c.robot,
                 duration=0.5, tolerance_px=1.0)
     assert "within 1 px of its goal" in r.criterion()
+
+
+def test_paper_page_says_which_speed_and_leaves_no_cell_blank():
+    """docs/paper.md's results table: the commanded twist's peak and the camera's, each named; every cell holds a
+    value or n/a (the page says why)."""
+    page = (Path(__file__).resolve().parents[2] / "docs/paper.md").read_text()
+    rows = [line for line in page.splitlines() if line.startswith("| world | case |") or line.startswith("| free |")
+            or line.startswith("| gantry |")]
+    header = [c.strip() for c in rows[0].strip("|").split("|")]
+    assert "peak commanded ‖v‖ (m/s)" in header and "peak camera ‖v‖ (m/s)" in header
+    assert not [h for h in header if "‖v‖" in h and "commanded" not in h and "camera" not in h]
+    for row in rows[1:]:
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert len(cells) == len(header) and all(cells), row
+        assert "—" not in cells, row  # n/a, as in summary.md
+    assert '"n/a": a run that did not converge' in page
+    commanded, camera = header.index("peak commanded ‖v‖ (m/s)"), header.index("peak camera ‖v‖ (m/s)")
+    gantry = [[c.strip() for c in r.strip("|").split("|")] for r in rows if r.startswith("| gantry |")]
+    assert all(float(r[camera]) < float(r[commanded]) and float(r[camera]) <= 0.4 for r in gantry)
