@@ -7,10 +7,12 @@
     ibvs replay BAG --out twists.csv              a ROS 2 bag's images through a tracker and the servo
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
-Every bad argument exits with status 2 and one line before any work starts; every output path
+Every bad argument exits with status 2 and one line before any work starts (so does a missing optional
+extra, naming it, and `ibvs` without a command, after its usage); every output path
 (--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out) is tried for writing then. An interrupted sweep
 (Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
-sweep whose Dask scheduler dies (exit status 1).
+sweep whose Dask scheduler dies (exit status 1). Output into a closed pipe (`ibvs ... | head -1`) ends
+the command quietly with status 141.
 
 Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
 sweep`), replay (`ibvs replay`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
