@@ -1009,7 +1009,7 @@ std::string json_escape(const std::string& s) {
 }
 
 void print_row(std::FILE* f, const Result& r) {
-  char what[48], robust[16] = "";
+  char what[48], robust[16] = "n/a";  // n/a: not a Servo::update row (print_header says so)
   if (r.section == "robot")
     std::snprintf(what, sizeof what, "%d joints, J 6x%d", r.n, r.n);
   else if (r.rows > 0)
@@ -1028,6 +1028,8 @@ void print_header(std::FILE* f, const char* title) {
                "max", "mean", "steps/s", "allocs", "robust");
   std::fprintf(f, "  %-42s %-20s %9s %9s %9s %9s %12s %7s %7s\n", "", "", "us", "us", "us", "us", "", "/call",
                "route");
+  std::fprintf(f, "  (robust route: frames of %d that Servo::update solves by QR + SVD; n/a: not a Servo::update "
+               "row)\n", Frames::count);
 }
 
 /// The ViSP stand-in ratio of one N = 4 layout: the SVD step (a JacobiSVD of J

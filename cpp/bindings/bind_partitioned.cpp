@@ -138,7 +138,8 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
         depths(depth, "depth", p.cols(), z);
         validate_depths(z, "depth", p.cols());
         const auto [k, l] = segment_indices(i, j, p);
-        return Eigen::Matrix<double, 1, 6>(segment_angle_jacobian(p, z, k, l));
+        const Eigen::Matrix<double, 1, 6> J = segment_angle_jacobian(p, z, k, l);
+        return py::array_t<double>(6, J.data());  // (6,), as the stub says (an Eigen row would read [1, 6])
       },
       py::arg("uv"), py::arg("depth"), py::arg("i"), py::arg("j"), "(6,) d theta_z/dt = J @ v.");
   m.def(
@@ -157,7 +158,8 @@ n_points >= 3. update() has Servo's signature and returns a ServoResult (Cartesi
         depths(depth, "depth", p.cols(), z);
         validate_depths(z, "depth", p.cols());
         if (area_scale(p) == 0.0) throw py::value_error("uv: the points enclose no area (sigma = 0)");
-        return Eigen::Matrix<double, 1, 6>(area_scale_jacobian(p, z));
+        const Eigen::Matrix<double, 1, 6> J = area_scale_jacobian(p, z);
+        return py::array_t<double>(6, J.data());
       },
       py::arg("uv"), py::arg("depth"), "(6,) d sigma/dt = J @ v.");
 }

@@ -28,10 +28,8 @@ def start(rng):
     m = np.asarray(cam.project(Pc[:, :2] / Pc[:, 2:]))
     if np.any((m < 0) | (m > [640, 480])):
         return None
-    try:
-        return sim.cases.solve_joints(robot, goal_pose @ off, case.goal)
-    except ValueError:
-        return None
+    ik = sim.solve_ik(robot, goal_pose @ off, case.goal, restarts=0)  # Newton from the goal joints only
+    return ik.q if ik.converged else None
 
 
 def image_error_px(r):

@@ -245,12 +245,26 @@ def format_table(res: dict[str, Any]) -> str:
     ]
     for c in res["cases"]:
         what = f"{c['layout']}({c['n']}) {c['rows']}x6"
-        ratio = f"numpy/ibvs {c['numpy_ratio']:.0f}x" if c.get("implementation") == "ibvs" and "numpy_ratio" in c else ""
-        if "default_over_tuned" in c:
-            ratio = f"/tuned {c['default_over_tuned']:.2f}x"
-        lines.append(f"  {c['name']:<52} {what:<16} {c['median_us']:8.2f} {c['p99_us']:8.2f} {c['max_us']:8.1f} "
-                     f"{c['calls_per_s']:10.0f} {ratio:>16}")
+        lines.append(f"  {c['name']:<52} {what:<16} {_cell(c['median_us'], 8, 2)} {_cell(c['p99_us'], 8, 2)} "
+                     f"{_cell(c['max_us'], 8, 1)} {_cell(c['calls_per_s'], 10, 0)} {_ratio(c):>16}")
+    lines.append(f"  {_NO_RATIO}")
     return "\n".join(lines)
+
+
+# Why a row's ratio is n/a: the table compares two pairs of rows only.
+_NO_RATIO = ("ratio n/a: only the damped ibvs step (numpy/ibvs: numpy's time over it) and the default step (/tuned: "
+            "over the damped one) have a counterpart to compare with")
+
+
+def _ratio(c: dict[str, Any]) -> str:
+    """The ratio column of one row: n/a where the row has no counterpart (_NO_RATIO) or the ratio is not finite."""
+    if "default_over_tuned" in c:
+        x, text = c["default_over_tuned"], "/tuned {:.2f}x"
+    elif c.get("implementation") == "ibvs" and "numpy_ratio" in c:
+        x, text = c["numpy_ratio"], "numpy/ibvs {:.0f}x"
+    else:
+        return "n/a"
+    return text.format(x) if x is not None and math.isfinite(x) else "n/a"
 
 
 FRAME_BUDGET_MS = 1000.0 / 60.0
@@ -401,6 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """`python -m ibvs.bench [OPTIONS]` (sys.argv[1:] by default): run the benchmark and print its table, or one
+    JSON line with --json; --vision times the image loop instead. Returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
         argv = argv[1:]

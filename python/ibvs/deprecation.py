@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import warnings
 
+# Nothing public: the deprecated modules' warning, used inside ibvs only.
+__all__: list[str] = []
+
 
 def warn_moved(old: str, new: str) -> None:
     """Issue one DeprecationWarning saying that module `old` is now `new`; called from the body of

@@ -188,6 +188,29 @@ def test_sweep_cli_over_an_arm(tmp_path, capsys):
     assert "2 starts: 1 run, 1 unreachable by the robot" in text
 
 
+def test_sweep_cli_over_the_builtin_arm(tmp_path, capsys):
+    """`ibvs sweep --world arm`: the built-in arm scenario (the Panda), its starts solved by IK, every one counted."""
+    out = tmp_path / "arm.csv"
+    assert main(["sweep", "--world", "arm", "--out", str(out), "--episodes", "2", "--duration", "2",
+                 "--schemes", "cartesian", "--jobs", "1", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "2 episodes (2 rows: 1 scheme each)" in text and re.search(r"2 starts: \d run, \d unreachable", text)
+    assert len(out.read_text().splitlines()) == 3  # header + one row per start
+
+
+def test_run_on_an_arm_converges_by_default(capsys):
+    """Without --scheme an arm runs the stacked hybrid, which converges; IBVS-P (the other worlds' default)
+    loses a point from the image early in the arm's general motion. --help says so."""
+    assert main(["run", "--world", "arm"]) == 0
+    out = capsys.readouterr().out
+    assert "stacked hybrid" in out and "converged at frame 765" in out
+    assert main(["run", "--world", "arm", "--scheme", "polar", "--duration", "2"]) == 1
+    assert "left_image" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    assert "stacked for --world arm" in " ".join(capsys.readouterr().out.split())
+
+
 @pytest.mark.parametrize("robot", ["panda", "ur5"])
 def test_run_an_example_arm(robot, capsys):
     assert main(["run", "--world", "arm", "--robot", robot, "--scheme", "stacked"]) == 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -19,15 +20,12 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _ibvs_bench() -> str | None:
-    """ibvs-bench on PATH (pip install .), next to the interpreter, or in a build tree."""
-    found = shutil.which("ibvs-bench")
-    if found:
-        return found
-    beside = Path(sys.executable).parent / "ibvs-bench"
-    if beside.is_file():
-        return str(beside)
-    candidates = sorted((ROOT / "build").glob("**/bench/ibvs-bench"), key=lambda p: p.stat().st_mtime)
-    return str(candidates[-1]) if candidates else None
+    """The newest ibvs-bench of: PATH (pip install .), next to the interpreter, a build tree (a stale installed
+    copy must not stand in for the one just built)."""
+    found = [shutil.which("ibvs-bench"), str(Path(sys.executable).parent / "ibvs-bench")]
+    found += [str(p) for p in (ROOT / "build").glob("**/bench/ibvs-bench")]
+    found = [f for f in found if f and Path(f).is_file()]
+    return max(found, key=lambda f: Path(f).stat().st_mtime) if found else None
 
 
 @pytest.mark.parametrize("kind", bench.LAYOUTS)
@@ -47,6 +45,20 @@ def test_python_bench_table(capsys: pytest.CaptureFixture[str]) -> None:
     for kind in bench.LAYOUTS:
         assert f"{kind}(4)" in out
     assert "numpy vectorised" in out and "ibvs Servo.update damped" in out and "/tuned" in out
+    assert not re.search(r"\bnan\b", out.lower())
+    rows = [line for line in out.splitlines() if line.startswith("  ") and "x6 " in line]
+    assert rows and all(not line.endswith(" ") and len(line.split()) >= 8 for line in rows), "a blank cell"
+    assert "n/a" in out and "ratio n/a: only" in out  # the baselines have nothing to compare with, said so
+
+
+def test_python_bench_table_says_na_not_nan() -> None:
+    """A figure that is not finite (or missing) prints n/a, never nan, inf or a blank."""
+    case = {"name": "x", "layout": "stacked", "n": 4, "rows": 16, "median_us": float("nan"), "p99_us": None,
+            "max_us": 1.0, "calls_per_s": float("inf"), "implementation": "ibvs", "numpy_ratio": float("nan")}
+    res = {"version": "0", "processor": "cpu", "python": "3", "numpy": "2", "timer_overhead_ns": 30.0,
+           "damping": 0.01, "gain": 0.5, "iterations": 10, "cases": [case]}
+    row = next(line for line in bench.format_table(res).splitlines() if line.startswith("  x "))
+    assert row.split()[3:] == ["n/a", "n/a", "1.0", "n/a", "n/a"]
 
 
 def test_python_bench_accepts_forwarded_separator(capsys: pytest.CaptureFixture[str]) -> None:
@@ -101,6 +113,10 @@ def test_cpp_bench_table(cpp_bench: str) -> None:
                  "solve: normal route", "solve: robust route", "robust", "ViSP stand-in", "stacked(4) 16x6",
                  "cartesian(4) 8x6", "misses", "episodes/s"):
         assert what in out, what
+    # Every row of the step tables has all nine cells: no blank, no nan (n/a, and the header says why).
+    rows = [line for line in out.splitlines() if re.match(r"  \S.* (8|16)x6 ", line)]
+    assert rows and all(len(line[44:].split()) == 9 for line in rows), "a blank cell"
+    assert not re.search(r"\bnan\b", out) and "n/a: not a Servo::update row" in out
 
 
 def test_cpp_bench_json(cpp_bench: str) -> None:
@@ -171,3 +187,41 @@ def test_cpp_bench_rejects_bad_options(cpp_bench: str) -> None:
 @pytest.mark.skipif(os.environ.get("IBVS_BENCH_REQUIRE_CLI") != "1", reason="set IBVS_BENCH_REQUIRE_CLI=1 to require it")
 def test_ibvs_bench_on_path() -> None:
     assert shutil.which("ibvs-bench"), "pip install . should put ibvs-bench on PATH"
+
+
+def _report():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_report", ROOT / "bench/report.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_report_cells_are_numbers_or_na_with_a_reason(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """bench/report.py: a figure no run measured (null, NaN) is "n/a", with the reason under its table; a Python row
+    without a counterpart has ratio n/a, said why; no cell is blank or nan."""
+    case = {"section": "components", "name": "solve", "layout": "stacked", "n": 4, "rows": 16, "median_us": 0.5,
+            "p99_us": None, "max_us": 2.0, "steps_per_s": 1e6, "allocs_per_call": 0}
+    cpp = {"benchmark": "ibvs-bench", "cpu": "cpu", "iterations": 10, "cases": [case],
+           "paced": [{"rate_hz": 60, "duration_s": 1, "spin_us": 0, "realtime": False, "steps": 0, "misses": 0,
+                      "lateness_median_us": None, "lateness_p99_us": None, "lateness_max_us": None,
+                      "step_median_us": None, "step_max_us": None}],
+           "episodes": []}
+    py_case = {"name": "baseline", "layout": "stacked", "n": 4, "rows": 16, "median_us": 0.1, "p99_us": 0.2,
+               "max_us": 1.0, "calls_per_s": 1e7, "implementation": "binding"}
+    py = {"benchmark": "ibvs.bench", "iterations": 10, "python": "3", "numpy": "2", "cases": [py_case]}
+    paths = []
+    for k, run in enumerate([cpp, py]):
+        path = tmp_path / f"run{k}.json"
+        path.write_text(json.dumps(run))
+        paths.append(str(path))
+    assert _report().main(paths) == 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.startswith("| ") and not line.startswith("| case")]
+    assert rows and not any("nan" in r.lower() or "| |" in r or "|  |" in r for r in rows), out
+    assert "| solve | stacked(4) 16×6 | 0.500 | n/a | 2.0 |" in out
+    assert "| 60 Hz | 1 s | normal | 0 | 0 | n/a |" in out
+    assert out.count("n/a: not measured") == 2  # under the components and the paced tables
+    assert "| baseline | stacked(4) 16×6 | 0.10 | 0.20 | 1.0 | 10,000,000 | n/a |" in out
+    assert "ratio n/a: only" in out

@@ -25,10 +25,18 @@ def test_citation_version_is_the_package_version():
                      (ROOT / "CMakeLists.txt").read_text(), flags=re.M)
 
 
-def test_citation_cites_the_founding_paper():
+def test_citation_is_ibvs_and_the_paper_is_a_reference():
+    """Citing ibvs cites the software (the top-level entry, no preferred-citation of something else); the paper
+    whose laws it implements is listed under references."""
     cff = (ROOT / "CITATION.cff").read_text()
-    paper = cff[cff.index("preferred-citation:"):]
-    assert 'title: "Combining Cartesian and polar coordinates in IBVS"' in paper
+    assert top_level(cff, "type") == "software" and top_level(cff, "title").startswith("ibvs: ")
+    assert "preferred-citation:" not in cff
+    head, _, references = cff.partition("\nreferences:\n")
+    assert references, "CITATION.cff has no top-level references"
+    assert "Combining Cartesian" not in head
+    entries = re.split(r"(?m)^  - ", references)[1:]
+    paper = next(e for e in entries if 'title: "Combining Cartesian and polar coordinates in IBVS"' in e)
+    assert paper.startswith("type: conference-paper")
     assert re.findall(r"family-names: (\w+)", paper) == ["Corke", "Spindler", "Chaumette"]
     assert "year: 2009" in paper and "start: 5962" in paper and "end: 5967" in paper
 

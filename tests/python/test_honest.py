@@ -298,3 +298,49 @@ def test_bench_vision_prints_na_and_why_not_nan(capsys):
     res = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))
     episode = res["cases"][-1]
     assert episode["p99_ms"] is None and episode["max_ms"] is None and "why" in episode
+
+
+def test_tolerance_px_is_in_measurement_units_everywhere():
+    """tolerance_px's unit is said the same way wherever it is documented or asked for: measurement units, that is
+    pixels, or normalised units for a normalised camera (the free world's); never "pixels" alone. The outputs
+    name the unit of the camera the run had."""
+    root = Path(__file__).resolve().parents[2]
+    texts = {str(p.relative_to(root)): p.read_text() for p in
+             [*root.glob("docs/*.md"), root / "README.md", *(root / "python/ibvs").rglob("*.py")]}
+    wrong = [f"{name}: {m.group(0)!r}" for name, text in texts.items()
+             for m in re.finditer(r"tolerance[_-]px[^.;\n]{0,60}?(many pixels|\(measurement units: pixels\))", text)]
+    assert not wrong, wrong
+    from ibvs.cli import args
+
+    for doc in (args.TOLERANCE_PX_HELP, sim.run.__doc__, sim.Result.__doc__):
+        flat = " ".join(doc.split())
+        assert "measurement units" in flat and "normalised units" in flat, flat[:200]
+    with pytest.raises(ValueError, match=r"measurement units: pixels; normalised units"):
+        gantry_run(tolerance_px=-1.0)
+    free = sim.cases.z_rotation()
+    r = sim.run(ibvs.Servo(ibvs.Layout.polar(4), gain=1.0), free.camera, free.target, free.start, free.goal,
+                duration=1.0, tolerance_px=1e-3)
+    assert "normalised units" in r.criterion() and "px" not in r.criterion()
+    c = GANTRY
+    r = sim.run(ibvs.Servo(ibvs.Layout.stacked(4), gain=2.0), c.camera, c.target, c.start, c.goal, robot=c.robot,
+                duration=0.5, tolerance_px=1.0)
+    assert "within 1 px of its goal" in r.criterion()
+
+
+def test_paper_page_says_which_speed_and_leaves_no_cell_blank():
+    """docs/paper.md's results table: the commanded twist's peak and the camera's, each named; every cell holds a
+    value or n/a (the page says why)."""
+    page = (Path(__file__).resolve().parents[2] / "docs/paper.md").read_text()
+    rows = [line for line in page.splitlines() if line.startswith("| world | case |") or line.startswith("| free |")
+            or line.startswith("| gantry |")]
+    header = [c.strip() for c in rows[0].strip("|").split("|")]
+    assert "peak commanded ‖v‖ (m/s)" in header and "peak camera ‖v‖ (m/s)" in header
+    assert not [h for h in header if "‖v‖" in h and "commanded" not in h and "camera" not in h]
+    for row in rows[1:]:
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert len(cells) == len(header) and all(cells), row
+        assert "—" not in cells, row  # n/a, as in summary.md
+    assert '"n/a": a run that did not converge' in page
+    commanded, camera = header.index("peak commanded ‖v‖ (m/s)"), header.index("peak camera ‖v‖ (m/s)")
+    gantry = [[c.strip() for c in r.strip("|").split("|")] for r in rows if r.startswith("| gantry |")]
+    assert all(float(r[camera]) < float(r[commanded]) and float(r[camera]) <= 0.4 for r in gantry)

@@ -3,6 +3,9 @@ the decoupled laws, convergence without retreat on the z-rotation pi, and bad in
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import look
@@ -30,6 +33,18 @@ def test_feature_jacobians_match_finite_differences(rng):
         Ja, Jsa = ibvs.segment_angle_jacobian(uv, z, 0, 1), ibvs.area_scale_jacobian(uv, z)
         np.testing.assert_allclose(Ja, Jt, rtol=1e-6, atol=1e-6 * max(1, np.abs(Ja).max()))
         np.testing.assert_allclose(Jsa, Js, rtol=1e-6, atol=1e-6 * max(1, np.abs(Jsa).max()))
+
+
+def test_feature_jacobians_are_the_stubs_shape():
+    """(6,) arrays, as the stub _core.pyi says: its docstrings and the signatures help() shows (no [1, 6] row)."""
+    stub = (Path(ibvs.__file__).parent / "_core.pyi").read_text()
+    for name, call in (("segment_angle_jacobian", lambda: ibvs.segment_angle_jacobian(GOOD, 1.0, 0, 1)),
+                       ("area_scale_jacobian", lambda: ibvs.area_scale_jacobian(GOOD, 1.0))):
+        J = call()
+        assert isinstance(J, np.ndarray) and J.shape == (6,) and J.dtype == np.float64, (name, J.shape)
+        declared = re.search(rf"def {name}\(.*\) -> (\w+):\n\s+\"\"\"(\(\d+,\))", stub)
+        assert declared and declared.groups() == ("_FloatArray", "(6,)"), name
+        assert "[1, 6]" not in getattr(ibvs, name).__doc__, name
 
 
 def test_area_scale_and_angle_values():

@@ -91,3 +91,35 @@ def test_links_lead_somewhere():
             assert anchor in {_slug(h) for h in headings}, f"README links to {link}: no such heading"
     docs = {str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")}
     assert docs - {"docs/installation.md"} <= set(local), "the README links every page of the guide"
+
+
+def about() -> str:
+    """The "about" paragraph (also the docs site's front page, through its snippet markers)."""
+    return README.split("<!-- --8<-- [start:about] -->\n", 1)[1].split("<!-- --8<-- [end:about] -->", 1)[0]
+
+
+def sentences(text: str) -> list[str]:
+    """Sentences of a paragraph: a '.', '!' or '?' then a space and a capital (or the end) closes one."""
+    return [s for s in re.split(r"(?<=[.!?])\s+(?=[A-Z*])", " ".join(text.split())) if s]
+
+
+def test_about_is_three_sentences():
+    assert sentences("One. Two is *here* (IROS 2009). Three, e.g. this.") == [
+        "One.", "Two is *here* (IROS 2009).", "Three, e.g. this."]
+    found = sentences(about())
+    assert len(found) == 3, f"the about paragraph has {len(found)} sentences: {found}"
+    assert found[0].startswith("ibvs ") and all(s.endswith(".") for s in found)
+
+
+def test_comparison_names_only_features_ibvs_has():
+    """The "other features" cell of ibvs: a dash only when ibvs has no feature block besides points; the lines it
+    names are ibvs.LineFeature, a block of an ibvs.Task."""
+    import ibvs
+
+    row = next(line for line in README.splitlines() if line.startswith("| other features |"))
+    cell = row.split("|")[2].strip()
+    blocks = [n for n in dir(ibvs) if isinstance(getattr(ibvs, n), type) and issubclass(getattr(ibvs, n), ibvs.Feature)
+              and getattr(ibvs, n) is not ibvs.Feature]
+    assert (cell == "—") == (not blocks), f"other features: {cell!r}, while ibvs has {blocks}"
+    if "lines" in cell:
+        assert "LineFeature" in blocks and "Task" in cell

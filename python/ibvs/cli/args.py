@@ -120,8 +120,7 @@ def figure_file(text: str) -> Path:
     try:
         from matplotlib.backend_bases import FigureCanvasBase
     except ImportError:
-        raise argparse.ArgumentTypeError('figures need matplotlib: pip install ".[plot]" from the ibvs '
-                                         'repository root') from None
+        raise argparse.ArgumentTypeError(f"figures need matplotlib (the plot extra): {install_line('plot')}") from None
     kinds = sorted(FigureCanvasBase.get_supported_filetypes())
     return out_file(*(f".{k}" for k in kinds))(text)
 
@@ -132,8 +131,8 @@ def animation_file(text: str) -> Path:
     try:
         from matplotlib.backend_bases import FigureCanvasBase  # noqa: F401
     except ImportError:
-        raise argparse.ArgumentTypeError('animations need matplotlib: pip install ".[plot]" from the ibvs '
-                                         'repository root') from None
+        raise argparse.ArgumentTypeError(f"animations need matplotlib (the plot extra): {install_line('plot')}") \
+            from None
     from ..viz.animation import check_path
 
     try:
@@ -152,6 +151,42 @@ def fail(prog: str, message) -> NoReturn:
     """A bad argument found after parsing: one line, then exit status 2 (as argparse's own errors)."""
     say(prog, message)
     raise SystemExit(2)
+
+
+# --------------------------------------------------------------------------- optional extras
+
+#: The optional modules a command may need -> the extra of pyproject.toml that installs them.
+EXTRAS = {"matplotlib": "plot", "PIL": "plot", "imageio_ffmpeg": "video", "cv2": "vision", "dask": "distributed",
+          "distributed": "distributed", "rosbags": "ros", "rerun": "rerun", "pinocchio": "robots",
+          "example_robot_data": "robots"}
+
+
+def install_line(extra: str) -> str:
+    """How to install an extra, from a clone (ibvs is on no package index)."""
+    return f'pip install ".[{extra}]" from the ibvs repository root'
+
+
+def missing_extra(error: ImportError) -> str | None:
+    """One line saying which extra to install, when `error` (or what caused it) is an optional module of
+    EXTRAS that is not installed; None for any other ImportError (a bug, not a missing extra)."""
+    e: BaseException | None = error
+    while isinstance(e, ImportError):
+        top = (e.name or "").split(".")[0]
+        if top in EXTRAS:
+            return f"{top} is not installed (the {EXTRAS[top]} extra): {install_line(EXTRAS[top])}"
+        e = e.__cause__ or e.__context__
+    text = " ".join(str(error).split())
+    return text if 'pip install ".[' in text else None
+
+
+def require(prog: str, module: str, what: str) -> None:
+    """Exit 2 with one line (missing_extra's) unless `module` can be imported; `what` needs it."""
+    import importlib
+
+    try:
+        importlib.import_module(module)
+    except ImportError as e:
+        fail(prog, f"{what} needs {missing_extra(e) or e}")
 
 
 # --------------------------------------------------------------------------- options of several commands

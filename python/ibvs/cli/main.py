@@ -7,10 +7,12 @@
     ibvs replay BAG --out twists.csv              a ROS 2 bag's images through a tracker and the servo
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
-Every bad argument exits with status 2 and one line before any work starts; every output path
+Every bad argument exits with status 2 and one line before any work starts (so does a missing optional
+extra, naming it, and `ibvs` without a command, after its usage); every output path
 (--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out) is tried for writing then. An interrupted sweep
 (Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
-sweep whose Dask scheduler dies (exit status 1).
+sweep whose Dask scheduler dies (exit status 1). Output into a closed pipe (`ibvs ... | head -1`) ends
+the command quietly with status 141.
 
 Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
 sweep`), replay (`ibvs replay`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
@@ -19,6 +21,7 @@ sweep`), replay (`ibvs replay`); `ibvs reproduce` and `ibvs bench` hand over to 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import ibvs
@@ -53,8 +56,33 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line (sys.argv[1:] by default); returns the exit status."""
+    """Run the command line (sys.argv[1:] by default); returns the exit status.
+
+    A command that needs an optional extra which is not installed says which (one line, status 2); a reader
+    that stops reading (`ibvs ... | head -1`) ends the command quietly with status 141, as SIGPIPE would."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        # Nothing more can be written: send what Python would still flush to /dev/null, and say nothing.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return 141
+    except ImportError as e:
+        message = a.missing_extra(e)
+        if message is None:
+            raise
+        command = argv[0] if argv[:1] and argv[0] in COMMANDS else ""
+        a.say(f"ibvs {command}".strip(), message)
+        return 2
+
+
+#: The commands of the parser.
+COMMANDS = ("reproduce", "run", "sweep", "replay", "bench")
+
+
+def _main(argv: list[str]) -> int:
     if argv[:1] == ["bench"] and not {"-h", "--help"} & set(argv[1:2]):
         # Every option after `bench` belongs to python -m ibvs.bench (argparse's REMAINDER drops `--x`).
         from .. import bench
@@ -66,6 +94,7 @@ def main(argv: list[str] | None = None) -> int:
         print(ibvs.cmake_dir())
         return 0
     if args.command == "reproduce":
+        a.require("ibvs reproduce", "matplotlib", "ibvs reproduce draws figures:")
         from ..study.reproduce import reproduce
 
         reproduce(args.out, quick=args.quick, angle_wrap=args.angle_wrap)
@@ -76,5 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         return sweep.command(args)
     if args.command == "replay":
         return replay.command(args)
-    parser.print_help()
-    return 0
+    # No command: what there is to run, on stderr, and the status of a usage error.
+    parser.print_help(sys.stderr)
+    a.say("ibvs", "a command is required (reproduce, run, sweep, replay or bench), or --version or --cmake-dir")
+    return 2

@@ -62,7 +62,8 @@ def add_parser(sub) -> None:
     where = w.add_mutually_exclusive_group()
     where.add_argument("--scenario", type=a.in_file, metavar="FILE.toml",
                        help="your scenario: camera, target, goal, robot, start distribution, control (docs/sweeps.md)")
-    where.add_argument("--world", choices=["free", "gantry"], help="a built-in scenario (default free)")
+    where.add_argument("--world", choices=["free", "gantry", "arm"],
+                       help="a built-in scenario (default free; arm: the Franka Panda, needs the robots extra)")
     w.add_argument("--episodes", type=a.number(0, MAX_EPISODES, integer=True),
                    help="random start set-ups (default: the scenario file's, else 100)")
     w.add_argument("--seed", type=a.number(0, a.SEED_MAX, integer=True), help="seed of the start set-ups and noise")

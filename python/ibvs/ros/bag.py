@@ -20,6 +20,9 @@ from typing import Dict, Iterable, Iterator, Optional, Tuple
 
 from . import types as t
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["BagWriter", "topics", "messages"]
+
 
 def _rosbags():
     try:

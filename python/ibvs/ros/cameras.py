@@ -20,6 +20,9 @@ import numpy as np
 from .._core import CameraModel
 from . import types as t
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["DISTORTION_MODELS", "camera_model", "camera_info"]
+
 #: The distortion models camera_model() reads (and camera_info() writes), with their number of coefficients.
 DISTORTION_MODELS = {"plumb_bob": 5, "rational_polynomial": 8, "equidistant": 4, "visp": 2, "": None, "none": None}
 

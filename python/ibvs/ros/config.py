@@ -17,6 +17,9 @@ import numpy as np
 
 from .._core import AdaptiveGain, CameraModel, Layout, PartitionedServo, Servo
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["servo_spec", "servo_from_spec"]
+
 #: The version of the /ibvs/config format this module writes and reads.
 FORMAT = 1
 

@@ -14,6 +14,9 @@ import numpy as np
 
 from . import types as t
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["ENCODINGS", "image", "gray8", "image_msg"]
+
 #: encoding -> (channels, bytes per channel).
 ENCODINGS = {"mono8": (1, 1), "8UC1": (1, 1), "mono16": (1, 2), "16UC1": (1, 2), "rgb8": (3, 1), "bgr8": (3, 1),
              "rgba8": (4, 1), "bgra8": (4, 1)}

@@ -10,6 +10,9 @@ import numpy as np
 
 from . import types as t
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["joint_positions", "joint_trajectory", "float64_array", "array_of"]
+
 
 def joint_positions(msg, names: Optional[Sequence[str]] = None) -> np.ndarray:
     """The positions of a sensor_msgs/JointState, in the order of `names` (default: the message's).

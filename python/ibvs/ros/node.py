@@ -38,6 +38,9 @@ from .images import gray8
 from .joints import float64_array, joint_positions, joint_trajectory
 from .twist import twist_msg
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["OUTPUTS", "NodeParams", "ServoNodeCore"]
+
 #: What the node can publish.
 OUTPUTS = ("twist", "joint_velocities", "joint_trajectory")
 

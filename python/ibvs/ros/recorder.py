@@ -37,6 +37,9 @@ from .joints import float64_array
 from .tf import tf_message
 from .twist import twist_msg
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["TOPICS", "record"]
+
 #: The topics of a recorded episode (see the module docstring).
 TOPICS = {"image": "/camera/image_raw", "camera_info": "/camera/camera_info", "goal_image": "/ibvs/goal/image_raw",
           "features": "/ibvs/features", "features_desired": "/ibvs/features_desired", "twist": "/ibvs/cmd_twist",

@@ -40,6 +40,9 @@ from .recorder import CAMERA, TARGET, TOPICS, WORLD
 from .tf import transforms
 from .twist import twist_msg
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["DEPTH_MODES", "REPLAY_TWIST_TOPIC", "Replay", "replay", "recorded_twists"]
+
 #: The depth modes replay knows (see the module docstring).
 DEPTH_MODES = ("exact", "pose", "desired", "estimated")
 #: The topic replay adds to the bag it writes (bag_out): what it would have commanded.

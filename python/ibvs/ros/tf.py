@@ -12,6 +12,9 @@ import numpy as np
 
 from . import types as t
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["quaternion", "rotation", "transforms", "tf_message"]
+
 
 def quaternion(R) -> np.ndarray:
     """(x, y, z, w) of a rotation matrix, w >= 0 (the largest of the four candidates solved first:

@@ -13,6 +13,9 @@ import numpy as np
 
 from . import types as t
 
+# What ibvs.ros re-exports (and documents); the other names here are its own helpers.
+__all__ = ["twist_msg", "twist_of"]
+
 
 def _twist6(twist) -> np.ndarray:
     v = np.asarray(twist, dtype=np.float64)

@@ -21,6 +21,9 @@ from typing import Any, Callable
 
 import numpy as np
 
+# Nothing public: the ROS message helpers of the ibvs.ros modules, used inside ibvs only.
+__all__: list[str] = []
+
 ROS_INSTALL = 'pip install ".[ros]" from the ibvs repository root'
 
 _default_typestore = None

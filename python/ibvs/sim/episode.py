@@ -12,6 +12,9 @@ from .._core import CameraModel, PartitionedServo, Servo
 from .._core import sim as _sim
 from .result import History, Metrics, Result, RunStatus, peak_speeds
 
+# What ibvs.sim re-exports (and documents); the other names here are its own helpers.
+__all__ = ["run"]
+
 # The simulator's parts under their ibvs.sim names (the native classes themselves).
 Camera = CameraModel  # the simulator's camera is the core's CameraModel (the same class)
 Target = _sim.Target
@@ -190,8 +193,8 @@ def run(
     if tolerance_px is not None:
         tolerance_px = _real(tolerance_px, "tolerance_px")
         if not (math.isfinite(tolerance_px) and tolerance_px > 0):
-            raise ValueError(f"tolerance_px must be a finite number > 0 (measurement units: pixels), or None for no "
-                             f"pixel test, got {tolerance_px!r}")
+            raise ValueError(f"tolerance_px must be a finite number > 0 (measurement units: pixels; normalised units "
+                             f"for Camera.normalized), or None for no pixel test, got {tolerance_px!r}")
     if tolerance is not None:
         tolerance = _real(tolerance, "tolerance")
         if not (math.isfinite(tolerance) and tolerance >= 0):

@@ -8,6 +8,9 @@ import warnings
 
 import numpy as np
 
+# What ibvs.sim re-exports (and documents); the other names here are its own helpers.
+__all__ = ["rotation", "pose", "pose_deg"]
+
 
 def _check_radians(r, stacklevel: int) -> None:
     """Warn when a rotation entry above 2 pi in magnitude looks like degrees."""

@@ -12,6 +12,9 @@ import numpy as np
 from .._core import CameraModel, Layout
 from .._core import sim as _sim
 
+# What ibvs.sim re-exports (and documents); the other names here are its own helpers.
+__all__ = ["OUTCOMES", "RunStatus", "Metrics", "History", "Result"]
+
 #: How an episode can end (the C++ Outcome enum, in its order).
 OUTCOMES = ("converged", "left_image", "behind_camera", "joint_limit", "singular", "diverged", "timeout",
             "target_backside", "collision", "lost_feature")
@@ -173,10 +176,11 @@ class Result:
     vision= sensor, e.g. an ibvs.vision.ImageSensor with its frames and timings; None by default).
 
     How convergence was judged: tolerance (the error norm had to be below it; None: not tested)
-    and tolerance_px (every measured point within this distance of its goal, measurement units;
-    None: not tested); measured_desired (N, 2) is the goal as the sensor measured it, what
-    pixel_error compares each frame's measurement with. measurements_desired (S,): the feature
-    blocks' measurements at the goal (a Task's lines...; empty for points only)."""
+    and tolerance_px (every measured point within this distance of its goal, in measurement units:
+    pixels; normalised units for Camera.normalized; None: not tested); measured_desired (N, 2) is
+    the goal as the sensor measured it, what pixel_error compares each frame's measurement with.
+    measurements_desired (S,): the feature blocks' measurements at the goal (a Task's lines...;
+    empty for points only)."""
 
     status: RunStatus
     metrics: Metrics
@@ -202,7 +206,8 @@ class Result:
     @property
     def pixel_error(self) -> np.ndarray:
         """(K,) the largest distance of a measured point from its goal's measurement at each
-        frame (measurement units: pixels; NaN where a point was not measured): what tolerance_px
+        frame (measurement units: pixels; normalised units for Camera.normalized; NaN where a point
+        was not measured): what tolerance_px
         is compared with."""
         h = self.history
         if h.measured is None or self.measured_desired is None:

@@ -426,14 +426,24 @@ DEFAULT_RANGES = {
         "rz_deg": (0.0, 180.0), "tilt_deg": (0.0, 8.0), "tilt_dir_deg": (0.0, 360.0),
         "tx": (-0.04, 0.04), "ty": (-0.04, 0.04), "tz": (-0.1, 0.1),
     },
+    # The gantry's offsets, from the Panda's goal posture (ibvs.sim.cases.arm_general_motion).
+    "arm": {
+        "rz_deg": (0.0, 180.0), "tilt_deg": (0.0, 8.0), "tilt_dir_deg": (0.0, 360.0),
+        "tx": (-0.04, 0.04), "ty": (-0.04, 0.04), "tz": (-0.1, 0.1),
+    },
 }
 
 
 @functools.lru_cache(maxsize=None)
 def builtin(world: str) -> Scenario:
     """The built-in scenarios: "free" (the paper's free-flying camera and four points, Table I;
-    gain 1, 20 s, exact depth) and "gantry" (the Afma6-like gantry with the distorted camera and
-    a 10 cm square at 0.6 m, Section III-B; gain 2, 15 s, depth from a pose estimate)."""
+    gain 1, 20 s, exact depth), "gantry" (the Afma6-like gantry with the distorted camera and
+    a 10 cm square at 0.6 m, Section III-B; gain 2, 15 s, depth from a pose estimate) and "arm"
+    (the same camera on the Franka Panda of example-robot-data at the goal posture of
+    ibvs.sim.cases.arm_general_motion, the square 0.5 m in front of it; gain 1, 15 s, depth from a
+    pose estimate; needs the robots extra). The starts are camera offsets from the goal, drawn from
+    DEFAULT_RANGES[world]; on the arm each is solved by ibvs.sim.solve_ik (unreachable ones are
+    counted, not run)."""
     if world == "free":
         c = sim.cases.z_rotation()
         return Scenario(c.camera, c.target, np.eye(4), name="free", ranges=dict(DEFAULT_RANGES["free"]),
@@ -442,6 +452,10 @@ def builtin(world: str) -> Scenario:
         c = sim.cases.gantry_general_motion()
         return Scenario(c.camera, c.target, np.asarray(c.goal), robot=c.robot, name="gantry",
                         ranges=dict(DEFAULT_RANGES["gantry"]), gain=2.0, duration=15.0, depth="pose")
+    if world == "arm":
+        c = sim.cases.arm_general_motion("panda")
+        return Scenario(c.camera, c.target, np.asarray(c.goal), robot=c.robot, name="arm",
+                        ranges=dict(DEFAULT_RANGES["arm"]), gain=1.0, duration=15.0, depth="pose")
     raise ValueError(f"world must be one of {sorted(DEFAULT_RANGES)}, got {world!r}")
 
 

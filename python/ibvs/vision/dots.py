@@ -11,6 +11,9 @@ import numpy as np
 from .images import check_image, check_real, opencv
 from .track import Track
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["DotTracker"]
+
 
 class DotTracker:
     """Bright dots on a dark background, tracked frame to frame.

@@ -10,6 +10,9 @@ import numpy as np
 
 from .._core import CameraModel
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["image_camera", "check_image"]
+
 
 def opencv():
     """The cv2 module, or an ImportError saying how to install it."""

@@ -24,6 +24,9 @@ from .._core import sim as _sim
 from .images import camera_image_size, check_real, opencv
 from .tag import TAG_DICTIONARIES
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["KINDS", "Renderer"]
+
 #: What the renderer draws: white dots on a dark plate, or a square fiducial tag.
 KINDS = ("dots", "tag")
 

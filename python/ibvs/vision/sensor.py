@@ -11,6 +11,9 @@ from .dots import DotTracker
 from .renderer import Renderer
 from .tag import TagDetector
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["ImageSensor"]
+
 
 class ImageSensor(_sim.Sensor):
     """The simulator's measurement through images: ibvs.sim.run(..., vision=ImageSensor(renderer, detector)).

@@ -10,6 +10,9 @@ import numpy as np
 from .images import check_image, opencv
 from .track import Track
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["TagDetector"]
+
 #: The tag families the renderer draws and the detector finds: name -> cv2.aruco dictionary.
 TAG_DICTIONARIES = {"apriltag_36h11": "DICT_APRILTAG_36h11", "aruco_4x4_50": "DICT_4X4_50"}
 

@@ -7,6 +7,9 @@ from typing import Tuple
 
 import numpy as np
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["Track"]
+
 
 @dataclass(frozen=True)
 class Track:

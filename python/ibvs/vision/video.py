@@ -6,6 +6,9 @@ import numpy as np
 
 from .images import check_real, opencv
 
+# What ibvs.vision re-exports (and documents); the other names here are its own helpers.
+__all__ = ["draw_points", "write_video"]
+
 
 def draw_points(image, detected=None, desired=None) -> np.ndarray:
     """An RGB copy of a grayscale image with the detected points (green crosses, numbered) and the
@@ -56,7 +59,8 @@ def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) ->
             import imageio_ffmpeg
         except ImportError:
             gif = path.with_suffix(".gif")
-            print(f"imageio-ffmpeg is not installed (pip install '.[video]'): writing {gif} instead")
+            print(f'imageio-ffmpeg is not installed (pip install ".[video]" from the ibvs repository root): '
+                  f"writing {gif} instead")
             path = gif
         else:
             h, w = rgb[0].shape[:2]
@@ -71,7 +75,8 @@ def write_video(path, frames, detected=None, desired=None, fps: float = 60.0) ->
             from PIL import Image
         except ImportError:  # Pillow comes with matplotlib (the plot extra); without it, PNG frames
             path = path.with_suffix("")
-            print(f"Pillow is not installed (pip install '.[plot]'): writing PNG frames into {path}/ instead")
+            print(f'Pillow is not installed (pip install ".[plot]" from the ibvs repository root): '
+                  f"writing PNG frames into {path}/ instead")
         else:
             ims = [Image.fromarray(f) for f in rgb]
             ims[0].save(path, save_all=True, append_images=ims[1:], duration=int(round(1000 / fps)), loop=0)

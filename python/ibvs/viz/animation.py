@@ -33,6 +33,9 @@ from .drawing import (
     valid_frames,
 )
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["animate"]
+
 #: Default frames per second of each format (a GIF stores delays in 1/100 s).
 FPS = {".gif": 20.0, ".mp4": 30.0}
 _VIDEO_EXTRA = 'MP4 needs imageio-ffmpeg: pip install ".[video]" from the ibvs repository root (or write a .gif)'

@@ -8,6 +8,9 @@ import numpy as np
 
 from .drawing import as_results, end_time, equal_3d, image_border, new_figure, run_labels, target_points, valid_frames
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["compare"]
+
 
 def compare(results: Sequence, labels: Optional[Sequence[str]] = None, *, title: Optional[str] = None, fig=None):
     """Overlay several episodes (e.g. one start under several schemes), one colour per run:

@@ -8,6 +8,9 @@ from typing import Optional
 
 import numpy as np
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["COORDINATE_STYLES", "AXIS_COLOURS", "TWIST_LABELS"]
+
 _EXTRA = 'ibvs.viz needs matplotlib: pip install ".[plot]" from the ibvs repository root'
 
 

@@ -28,6 +28,9 @@ from .drawing import (
     valid_frames,
 )
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["episode"]
+
 _TEX = {"u": "u", "v": "v", "r": "r", "theta": r"\theta", "rtheta": r"r\theta"}
 _BLOCK = {"cartesian": ("u", "v"), "polar": ("r", "theta"), "cylindrical": ("r", "rtheta")}
 

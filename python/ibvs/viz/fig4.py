@@ -7,6 +7,9 @@ import numpy as np
 
 from .drawing import new_figure
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["square_perimeter_r", "image_limits_paths", "image_limits"]
+
 
 def square_perimeter_r(theta: np.ndarray, half_width: float) -> np.ndarray:
     """Radius of the border of the square image [-b, b]^2 in direction theta: b / max(|cos|, |sin|)."""

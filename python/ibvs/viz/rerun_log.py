@@ -28,6 +28,9 @@ import numpy as np
 
 from .drawing import as_results, is_pixel_camera, run_labels
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["rerun"]
+
 #: The twist components' entity names (under twist/).
 TWIST_NAMES = ("Tx", "Ty", "Tz", "wx", "wy", "wz")
 

@@ -7,6 +7,9 @@ from typing import Sequence
 
 from .drawing import new_figure
 
+# What ibvs.viz re-exports (and documents); the other names here are its own helpers.
+__all__ = ["sweep_summary"]
+
 
 def sweep_summary(table: Sequence[dict], by: str = "rz_deg", *, fig=None):
     """Figure of ibvs.study.sweep.aggregate(): per scheme (one colour each) against the bins of

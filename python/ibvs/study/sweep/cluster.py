@@ -8,6 +8,9 @@ from typing import Optional
 from .episodes import chunks, run_batch
 from .spec import SweepSpec
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["CONNECT_TIMEOUT", "SchedulerLost"]
+
 #: Seconds a Dask scheduler address has to answer.
 CONNECT_TIMEOUT = 5.0
 

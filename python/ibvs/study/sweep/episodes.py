@@ -15,6 +15,9 @@ from ..scenario import PARAMETERS
 from .rows import COLUMNS, INT_COLUMNS
 from .spec import SweepSpec, episode_id, samples
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["run_episode"]
+
 
 def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict] = None,
                 factory: Optional[Callable] = None) -> dict:

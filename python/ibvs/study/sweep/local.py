@@ -11,6 +11,9 @@ from typing import Optional
 from .episodes import run_batch
 from .spec import SweepSpec
 
+# Nothing public: the local process pool of ibvs.study.sweep.sweep, used inside ibvs only.
+__all__: list[str] = []
+
 
 def worker(conn, spec: SweepSpec, factories: Optional[dict], inherited: list, parent: int) -> None:
     """A local worker process: runs the batches the parent sends on its own pipe until it sends None

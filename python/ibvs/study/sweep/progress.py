@@ -9,6 +9,9 @@ import time
 from collections import Counter
 from typing import Iterable
 
+# Nothing public: the progress line of a sweep, used inside ibvs only.
+__all__: list[str] = []
+
 
 def count(episodes: int, schemes: int, rows: int, complete: int) -> str:
     """"N of E episodes (M of R rows: K schemes each)": complete episodes of `episodes`, rows of

@@ -10,6 +10,9 @@ from typing import Optional, Union
 
 from ..scenario import PARAMETERS
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["COLUMNS", "load"]
+
 #: Columns of the CSV, in order.
 COLUMNS = (
     "id", "config", "index", "scenario", "scheme", *PARAMETERS, "depth", "angle_wrap", "outcome", "frame",

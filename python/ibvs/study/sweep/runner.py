@@ -20,12 +20,15 @@ from .progress import Progress
 from .rows import RowWriter, load
 from .spec import MAX_EPISODES, MAX_JOBS, SweepSpec, check_int, episode_id
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["resolve", "sweep"]
+
 
 def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapping[str, tuple]] = None,
             **settings) -> tuple[Scenario, dict]:
     """The Scenario of sweep()'s arguments and the [sweep] options of a scenario file.
 
-    scenario: a Scenario, a built-in name ("free", "gantry"), a TOML file (str or Path ending
+    scenario: a Scenario, a built-in name ("free", "gantry", "arm"), a TOML file (str or Path ending
     in .toml), or None (world, default "free"). ranges and settings (gain, duration, depth,
     tolerance, tolerance_px, boundary_margin, boundary_gain, angle_wrap; None = the scenario's)
     override the scenario's; tolerance_px without tolerance replaces the scenario's tests by the

@@ -12,6 +12,9 @@ import numpy as np
 from ..schemes import SCHEMES
 from ..scenario import DEFAULTS, LIMITS, PARAMETERS, Scenario, builtin
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["MAX_EPISODES", "MAX_JOBS", "SweepSpec", "samples", "episode_id"]
+
 #: Most episodes and local worker processes a sweep may ask for.
 MAX_EPISODES = 10**6
 MAX_JOBS = 256

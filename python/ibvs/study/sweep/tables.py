@@ -13,6 +13,10 @@ from ... import sim
 from ..schemes import SCHEMES
 from ..scenario import PARAMETERS
 
+# What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
+__all__ = ["ROTATION_BINS", "NOT_RUN", "outcomes", "bins_for", "aggregate", "starts", "format_starts",
+           "format_table", "figure"]
+
 #: Default bins of the optical-axis rotation (degrees).
 ROTATION_BINS = tuple(range(0, 181, 30))
 
