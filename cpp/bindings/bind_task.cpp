@@ -2,6 +2,7 @@
 #include "convert.hpp"
 
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/spherical.hpp"
 #include "ibvs/task.hpp"
 
 #include <pybind11/stl.h>
@@ -148,6 +149,38 @@ goal's, theta's difference wrapped into (-pi, pi].)")
           },
           py::arg("p1"), py::arg("p2"), py::arg("plane"),
           "The measurement (rho >= 0, theta, A, B, C) of the line through two distinct image points.");
+
+  py::class_<SphericalPointFeature, Feature, std::shared_ptr<SphericalPointFeature>>(
+      m, "SphericalPointFeature", R"(A point on the unit sphere: its bearing b = P / |P| (3 rows).
+
+Measurement (4): bx, by, bz (a unit vector, e.g. from CameraModel.to_bearing) and the distance
+R = |P| in metres; SphericalPointFeature.measure(P) builds it from a camera-frame point. Any angle
+off the optical axis, behind the camera too. Interaction matrix [-(I - b b^T) / R, [b]_x] (Hamel &
+Mahony, IEEE T-RA 2002, eq. 9), rank 2.)")
+      .def(py::init<>())
+      .def_static(
+          "measure",
+          [](py::handle P) {
+            const CArray a = as_array(P, "P");
+            if (a.size() != 3) throw py::value_error("P must be a camera-frame point (X, Y, Z)");
+            const auto m = SphericalPointFeature::measure(a.data()[0], a.data()[1], a.data()[2]);
+            return py::array_t<double>(4, m.data());
+          },
+          py::arg("P"), "The measurement (bx, by, bz, R) of the camera-frame point P (finite, non-zero).");
+
+  py::class_<SphericalPolarFeature, Feature, std::shared_ptr<SphericalPolarFeature>>(
+      m, "SphericalPolarFeature", R"(A point on the unit sphere as (colatitude, azimuth) (2 rows).
+
+The paper's polar coordinates lifted to the sphere: colatitude beta = angle from the optical axis
+in [0, pi], azimuth phi = atan2(by, bx) about it (a rotation about the axis moves phi alone).
+Measurement (4): bx, by, bz, R as SphericalPointFeature. Interaction matrix: Corke, ICRA 2010
+(MVTB's SphericalCamera.visjac_p), camera-twist convention; the azimuth error is wrapped into
+(-pi, pi]. Near the axis (sin beta < min_sin) the current point uses its (bx, by) rows and a goal
+there has no azimuth (its error is 0).)")
+      .def(py::init([](py::handle min_sin) { return SphericalPolarFeature(real(min_sin, "min_sin")); }),
+           py::arg("min_sin") = default_polar_min_radius)
+      .def_property_readonly("min_sin", &SphericalPolarFeature::min_sin,
+                             "sin(colatitude) below which the current point uses its (bx, by) rows.");
 
   py::class_<Task>(m, "Task", R"(What a Servo drives to zero: the points of a Layout, then feature blocks.
 

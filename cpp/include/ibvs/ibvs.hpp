@@ -9,6 +9,7 @@
 #include "ibvs/feature.hpp"
 #include "ibvs/features.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/spherical.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/pinv.hpp"
 #include "ibvs/planar_pose.hpp"
