@@ -360,7 +360,7 @@ becomes NaN with invalid="nan".)")
            "Whether each pixel lies inside the sensor bounds (inclusive): bool (N,), or a bool for one point (2,).")
       .def(
           "to_opencv",
-          [](const CameraModel& c) {
+          [](const CameraModel& c) -> py::tuple {
             if (c.distortion() == Distortion::omnidir) return py::make_tuple(c.K(), c.xi(), c.opencv_coefficients());
             return py::make_tuple(c.K(), c.opencv_coefficients());
           },

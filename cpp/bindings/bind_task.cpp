@@ -182,6 +182,45 @@ there has no azimuth (its error is 0).)")
       .def_property_readonly("min_sin", &SphericalPolarFeature::min_sin,
                              "sin(colatitude) below which the current point uses its (bx, by) rows.");
 
+  m.def(
+      "spherical_measurements",
+      [](const CameraModel& camera, py::handle pixels, py::handle distance, const std::string& invalid) {
+        if (invalid != "raise" && invalid != "nan")
+          throw py::value_error("invalid must be 'raise' or 'nan', got '" + invalid + "'");
+        const CArray a = as_array(pixels, "pixels");
+        const auto px = points(a, "pixels");
+        const CArray d = as_array(distance, "distance");
+        const auto R = vector(d, "distance");
+        if (R.size() != px.cols())
+          throw py::value_error("distance must hold one value per pixel (" + std::to_string(px.cols()) + "), got " +
+                                std::to_string(R.size()));
+        if (invalid == "raise") {
+          try {
+            camera.validate_pixels(px, "pixels");
+          } catch (const std::invalid_argument& e) {
+            throw py::value_error(std::string(e.what()).substr(6));
+          }
+          for (Eigen::Index i = 0; i < R.size(); ++i)
+            if (!(R(i) >= min_depth && R(i) <= max_depth))
+              throw py::value_error("distance[" + std::to_string(i) + "] must be within [" + float_repr(min_depth) +
+                                    ", " + float_repr(max_depth) + "] m, got " + float_repr(R(i)));
+        }
+        py::array_t<double> out({px.cols(), Eigen::Index(4)});
+        Eigen::Map<Eigen::VectorXd> o(out.mutable_data(), 4 * px.cols());
+        spherical_measurements(camera, px, R, o);
+        return out;
+      },
+      py::arg("camera"), py::arg("pixels"), py::arg("distance"), py::arg("invalid") = "raise",
+      R"(Measurements of spherical feature blocks from pixels, through the lens model.
+
+camera: an ibvs.CameraModel; pixels (N, 2) or (N, 1, 2); distance (N,): |P| of each point, metres.
+Returns (N, 4): one (bx, by, bz, R) row per point, the measurement of a SphericalPointFeature or
+SphericalPolarFeature (pass it to Servo.update as measurements, one row per block, e.g.
+list(rows)). The bearing comes from camera.to_bearing: no normalised coordinates, any angle the
+lens sees (beyond 90 degrees off the axis with a fisheye or omnidir model). A pixel beyond the
+image circle or a distance outside [1e-6, 1e6] m raises ValueError naming it, or gives a row of NaN
+with invalid="nan".)");
+
   py::class_<Task>(m, "Task", R"(What a Servo drives to zero: the points of a Layout, then feature blocks.
 
 Task(layout=None): the image points of `layout` (a Servo of a Task of points only is the Servo of

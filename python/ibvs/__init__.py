@@ -46,6 +46,7 @@ from ._core import (
     segment_angle,
     segment_angle_jacobian,
     singular_values,
+    spherical_measurements,
     wrap_angle,
 )
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
@@ -82,6 +83,7 @@ __all__ = [
     "segment_angle",
     "segment_angle_jacobian",
     "singular_values",
+    "spherical_measurements",
     "wrap_angle",
 ]
 

@@ -412,6 +412,12 @@ class SphericalPolarFeature(Feature):
     def min_sin(self) -> float:
         """sin(colatitude) below which the current point uses its (bx, by) rows."""
 
+def spherical_measurements(
+    camera: CameraModel, pixels: _ArrayLike, distance: _ArrayLike, invalid: str = "raise"
+) -> _FloatArray:
+    """(N, 4) measurements (bx, by, bz, R) of spherical feature blocks from pixels (through
+    camera.to_bearing) and distances |P| (metres)."""
+
 class Task:
     """What a Servo drives to zero: the points of a Layout, then feature blocks.
 

@@ -1,5 +1,6 @@
 // Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
-// damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
+// damped_pinv / singular_values, se3_exp, and the wide-angle path (fisheye /
+// omnidir CameraModel bearings, spherical feature blocks): arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
 //  * every function either throws std::invalid_argument or answers with finite numbers;
@@ -208,13 +209,85 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
+// Wide field of view: a fisheye or omnidirectional CameraModel built from fuzzed parameters (or
+// refused), to_bearing / from_bearing on fuzzed pixels and directions (accepted: finite, unit
+// bearings; validate_* throws exactly for what they refuse), and a Servo of spherical blocks on
+// fuzzed measurements (validate throws exactly when update refuses; accepted: finite twist).
+void fuzz_wide(Bytes& b) {
+  std::optional<CameraModel> cam;
+  try {
+    Eigen::Matrix3d K;
+    K << (b.byte() < 200 ? 100.0 + b.byte() : b.real()), 0, 640, 0, (b.byte() < 200 ? 100.0 + b.byte() : b.real()), 512,
+        0, 0, 1;
+    Eigen::Vector4d d;
+    for (int i = 0; i < 4; ++i) d(i) = b.byte() < 200 ? (b.byte() - 127.5) / 2000.0 : b.real();
+    if (b.byte() % 2) cam.emplace(CameraModel::from_opencv(K, d, 1280, 1024, true));
+    else cam.emplace(CameraModel::from_omnidir(K, b.byte() < 200 ? b.byte() / 80.0 : b.real(), d, 1280, 1024));
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  CHECK(cam->max_angle() > 0.0 && cam->max_angle() <= pi && !(cam->fold_radius() <= 0.0));
+  for (int k = 0; k < 4; ++k) {
+    Points px(2, 1);
+    px << (b.byte() < 200 ? b.byte() * 6.0 : b.real()), (b.byte() < 200 ? b.byte() * 5.0 : b.real());
+    Eigen::Vector3d v;
+    const bool ok = cam->to_bearing(px(0, 0), px(1, 0), v);
+    CHECK(ok ? v.allFinite() && std::abs(v.norm() - 1.0) < 1e-12 : std::isnan(v.x()));
+    bool threw = false;
+    try {
+      cam->validate_pixels(px, "pixels");
+    } catch (const std::invalid_argument&) {
+      threw = true;
+    }
+    CHECK(threw == !ok);
+    Bearings d(3, 1);
+    d << b.coordinate(), b.coordinate(), b.coordinate();
+    Eigen::Vector2d q;
+    const bool okb = cam->from_bearing(d(0), d(1), d(2), q);
+    CHECK(okb ? q.allFinite() : std::isnan(q.x()));
+    threw = false;
+    try {
+      cam->validate_bearings(d, "bearings");
+    } catch (const std::invalid_argument&) {
+      threw = true;
+    }
+    CHECK(threw == !okb);
+  }
+  Task task;
+  const int n = b.small(1, 3);
+  for (int i = 0; i < n; ++i) {
+    if (b.byte() % 2) task.add(SphericalPointFeature());
+    else task.add(SphericalPolarFeature());
+  }
+  Servo servo(task);
+  ServoInput in(task);
+  ServoOutput out(task);
+  for (int i = 0; i < n; ++i)
+    for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
+      Eigen::Vector3d d(b.coordinate(), b.coordinate(), b.coordinate());
+      if (b.byte() < 220 && d.allFinite() && d.norm() > 0.0 && std::isfinite(d.norm())) d /= d.norm();
+      m->segment<3>(4 * i) = d;
+      (*m)(4 * i + 3) = b.depth();
+    }
+  bool threw = false;
+  try {
+    servo.validate(in);
+  } catch (const std::invalid_argument&) {
+    threw = true;
+  }
+  const Status st = servo.update(in, out);
+  CHECK(threw == (st == Status::invalid_input));
+  if (st != Status::invalid_input) CHECK(out.velocity.allFinite());
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 3) {
+  switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
+    case 3: fuzz_wide(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

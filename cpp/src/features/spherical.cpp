@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 namespace ibvs {
@@ -109,6 +110,26 @@ void SphericalPolarFeature::interaction(const double* m, Eigen::Ref<MatrixX6> L)
   const double cb = b.z(), cp = b.x() / sb, sp = b.y() / sb, cot = cb / sb;
   L.row(0) << -cb * cp * iR, -cb * sp * iR, sb * iR, sp, -cp, 0.0;
   L.row(1) << sp * iR / sb, -cp * iR / sb, 0.0, cp * cot, sp * cot, -1.0;
+}
+
+int spherical_measurements(const CameraModel& camera, const Eigen::Ref<const Points>& pixels,
+                           const Eigen::Ref<const Eigen::VectorXd>& distance,
+                           Eigen::Ref<Eigen::VectorXd> measurements) noexcept {
+  const Eigen::Index n = pixels.cols();
+  if (distance.size() != n || measurements.size() != 4 * n) {
+    measurements.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return static_cast<int>(n);
+  }
+  int failed = 0;
+  Eigen::Vector3d b;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const bool ok = camera.to_bearing(pixels(0, i), pixels(1, i), b) && distance(i) >= min_depth && distance(i) <= max_depth;
+    measurements.segment<3>(4 * i) = b;
+    measurements(4 * i + 3) = ok ? distance(i) : std::numeric_limits<double>::quiet_NaN();
+    if (!ok) measurements.segment<3>(4 * i).setConstant(std::numeric_limits<double>::quiet_NaN());
+    failed += !ok;
+  }
+  return failed;
 }
 
 }  // namespace ibvs

@@ -37,6 +37,7 @@
 // max_depth].
 #pragma once
 
+#include "ibvs/camera_model.hpp"
 #include "ibvs/feature.hpp"
 
 #include <array>
@@ -76,5 +77,15 @@ class SphericalPolarFeature final : public Feature {
  private:
   double min_sin_;
 };
+
+/// Pixels to spherical measurements through the lens model: the measurements of N spherical blocks
+/// (4 doubles each, (bx, by, bz, R), block after block, as a Task of N such blocks takes them) from
+/// N pixels (2 x N) by CameraModel::to_bearing (no normalised coordinates: any angle the lens sees,
+/// beyond 90 degrees off the axis too) and the N distances R (metres). Returns the number of points
+/// refused (a pixel to_bearing refuses, a distance outside [min_depth, max_depth]; their 4 doubles
+/// NaN), or N when the sizes disagree (all NaN). noexcept, allocation-free.
+int spherical_measurements(const CameraModel& camera, const Eigen::Ref<const Points>& pixels,
+                           const Eigen::Ref<const Eigen::VectorXd>& distance,
+                           Eigen::Ref<Eigen::VectorXd> measurements) noexcept;
 
 }  // namespace ibvs
