@@ -73,7 +73,8 @@ def test_omnidir_xi_below_one_sees_behind():
     assert math.isclose(cam.max_angle, math.acos(-0.8), rel_tol=1e-12)
     b = directions(1000, 0.99 * cam.max_angle, seed=3)
     ref, _ = cv2.omnidir.projectPoints(b[None], np.zeros(3), np.zeros(3), cam.K, 0.8, np.array(cam.coefficients[1:]))
-    assert np.abs(cam.from_bearing(b) - ref[0]).max() < 1e-6
+    # near acos(-xi) the pixels run to ~1e8 (an asymptote): 1e-6 px, or 1e-12 relative out there
+    assert (np.abs(cam.from_bearing(b) - ref[0]) <= 1e-6 + 1e-12 * np.abs(ref[0])).all()
 
 
 @pytest.mark.parametrize("name", ["plumb_bob", "fisheye", "omni", "pinhole"])
@@ -131,8 +132,8 @@ def test_omnidir_yaml_pickle_repr(tmp_path, omni):
     k = K_OMNI.ravel()
     path.write_text(
         f"image_width: {W}\nimage_height: {H}\nxi: {XI}\ndistortion_model: omnidir\n"
-        f"camera_matrix: {{rows: 3, cols: 3, data: [{', '.join(map(repr, k))}]}}\n"
-        f"distortion_coefficients: {{rows: 1, cols: 4, data: [{', '.join(map(repr, D_OMNI))}]}}\n"
+        f"camera_matrix: {{rows: 3, cols: 3, data: [{', '.join(str(float(x)) for x in k)}]}}\n"
+        f"distortion_coefficients: {{rows: 1, cols: 4, data: [{', '.join(str(float(x)) for x in D_OMNI)}]}}\n"
     )
     assert ibvs.CameraModel.from_yaml(path, fps=60) == omni
     path.write_text(path.read_text().replace(f"xi: {XI}\n", ""))
