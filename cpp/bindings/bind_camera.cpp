@@ -57,32 +57,30 @@ void check_invalid(const std::string& invalid) {
 py::array_t<double> to_bearings(const CameraModel& c, py::handle obj, const std::string& invalid) {
   check_invalid(invalid);
   const PointArgs in = point_args(obj, "pixels");
-  if (invalid == "raise") {
-    try {
+  py::array_t<double> out = in.a.ndim() == 1 ? py::array_t<double>(3) : py::array_t<double>({in.p.cols(), Eigen::Index(3)});
+  Eigen::Map<Bearings> o(out.mutable_data(), 3, in.p.cols());
+  if (c.to_bearing(in.p, o) > 0 && invalid == "raise") {
+    try {  // the throwing path names the first refused pixel
       c.validate_pixels(in.p, "pixels");
     } catch (const std::invalid_argument& e) {
       throw py::value_error(std::string(e.what()).substr(6));  // without the "ibvs: " prefix, as the other messages
     }
   }
-  py::array_t<double> out = in.a.ndim() == 1 ? py::array_t<double>(3) : py::array_t<double>({in.p.cols(), Eigen::Index(3)});
-  Eigen::Map<Bearings> o(out.mutable_data(), 3, in.p.cols());
-  c.to_bearing(in.p, o);
   return out;
 }
 
 py::array_t<double> from_bearings(const CameraModel& c, py::handle obj, const std::string& invalid) {
   check_invalid(invalid);
   const BearingArgs in = bearing_args(obj, "bearings");
-  if (invalid == "raise") {
+  py::array_t<double> out = in.a.ndim() == 1 ? py::array_t<double>(2) : py::array_t<double>({in.b.cols(), Eigen::Index(2)});
+  Eigen::Map<Points> o(out.mutable_data(), 2, in.b.cols());
+  if (c.from_bearing(in.b, o) > 0 && invalid == "raise") {
     try {
       c.validate_bearings(in.b, "bearings");
     } catch (const std::invalid_argument& e) {
       throw py::value_error(std::string(e.what()).substr(6));
     }
   }
-  py::array_t<double> out = in.a.ndim() == 1 ? py::array_t<double>(2) : py::array_t<double>({in.b.cols(), Eigen::Index(2)});
-  Eigen::Map<Points> o(out.mutable_data(), 2, in.b.cols());
-  c.from_bearing(in.b, o);
   return out;
 }
 

@@ -477,6 +477,37 @@ bool CameraModel::undistort_radtan(double xd, double yd, double r_hi, double r2_
                                    Eigen::Vector2d& uv) const noexcept {
   const double k1 = k_[0], k2 = k_[1], p1 = k_[2], p2 = k_[3], k3 = k_[4];
   const auto radial = [&](double r2) { return 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3)); };
+  const double f = std::max(px_, py_);
+  // Fast path (the usual pixel of a usual lens): Newton's method on the full map started from
+  // (xd, yd) itself, no bracket. Its answer is kept only when it passes the same acceptance test
+  // as the bracketed path below (inside r_hi, residual below newton_tolerance_px, Jacobian
+  // determinant > 0, where the map is one-to-one); otherwise the bracketed path decides.
+  {
+    const double s0 = radial(xd * xd + yd * yd);  // one fixed-point step of the radial part: a closer start
+    const double g0 = s0 > 0.5 && s0 < 2.0 ? 1.0 / s0 : 1.0;
+    double x = xd * g0, y = yd * g0, e2 = 0.0, r2 = 0.0;
+    const double tol2 = (1e-3 * newton_tolerance_px / f) * (1e-3 * newton_tolerance_px / f);
+    for (int it = 0; it < 12; ++it) {
+      r2 = x * x + y * y;
+      const double R = radial(r2), dR = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
+      const double ex = x * R + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - xd;
+      const double ey = y * R + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - yd;
+      e2 = ex * ex + ey * ey;
+      if (e2 <= tol2 || !(r2 < r2_hi)) break;
+      const double a = R + 2.0 * x * x * dR + 2.0 * p1 * y + 6.0 * p2 * x;
+      const double b = 2.0 * x * y * dR + 2.0 * p1 * x + 2.0 * p2 * y;
+      const double d = R + 2.0 * y * y * dR + 6.0 * p1 * y + 2.0 * p2 * x;
+      const double det = a * d - b * b;
+      if (!(det > 0.0)) break;
+      const double idet = 1.0 / det;
+      x -= (d * ex - b * ey) * idet;
+      y -= (a * ey - b * ex) * idet;
+    }
+    if (e2 <= tol2 && r2 < r2_hi && plumb_bob_det(k_, x, y) > 0.0) {
+      uv << x, y;
+      return true;
+    }
+  }
   const double rho = std::sqrt(xd * xd + yd * yd);
   double x = 0.0, y = 0.0;
   if (rho > 0.0) {
@@ -490,7 +521,6 @@ bool CameraModel::undistort_radtan(double xd, double yd, double r_hi, double r2_
     x = xd * r / rho;
     y = yd * r / rho;
   }
-  const double f = std::max(px_, py_);
   for (int it = 0; it < 30; ++it) {
     const double r2 = x * x + y * y, R = radial(r2), dR = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
     const double ex = x * R + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - xd;
@@ -660,27 +690,30 @@ int CameraModel::from_bearing(const Eigen::Ref<const Bearings>& bearings, Eigen:
 void CameraModel::validate_pixels(const Eigen::Ref<const Points>& pixels, const char* name) const {
   Eigen::Vector3d b;
   for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
+    if (to_bearing(pixels(0, i), pixels(1, i), b)) continue;
     const std::string which = std::string(name) + "[" + std::to_string(i) + "]";
     if (!std::isfinite(pixels(0, i)) || !std::isfinite(pixels(1, i))) fail(which + " is not finite");
-    if (!to_bearing(pixels(0, i), pixels(1, i), b))
-      fail(which + " = (" + num(pixels(0, i)) + ", " + num(pixels(1, i)) + ") lies beyond the image circle of the " +
-           to_string(distortion_) + " model (max_angle " + num(angle_max_ * 180.0 / pi) +
-           " degrees off the axis, fold_radius " + num(fold_rd_) + ")");
+    fail(which + " = (" + num(pixels(0, i)) + ", " + num(pixels(1, i)) + ") lies beyond the image circle of the " +
+         to_string(distortion_) + " model (max_angle " + num(angle_max_ * 180.0 / pi) +
+         " degrees off the axis, fold_radius " + num(fold_rd_) + ") or where its distortion is not one-to-one");
   }
 }
 
 void CameraModel::validate_bearings(const Eigen::Ref<const Bearings>& bearings, const char* name) const {
   Eigen::Vector2d p;
   for (Eigen::Index i = 0; i < bearings.cols(); ++i) {
-    const std::string which = std::string(name) + "[" + std::to_string(i) + "]";
     const Eigen::Vector3d b = bearings.col(i);
+    if (from_bearing(b.x(), b.y(), b.z(), p)) continue;
+    const std::string which = std::string(name) + "[" + std::to_string(i) + "]";
     if (!b.allFinite()) fail(which + " is not finite");
     if (!(b.cwiseAbs().maxCoeff() > 0.0)) fail(which + " has zero length (a bearing is a direction)");
     const Eigen::Vector3d d = b / b.cwiseAbs().maxCoeff();  // scaled: its norm cannot overflow
-    if (!from_bearing(b.x(), b.y(), b.z(), p))
-      fail(which + " lies " + num(std::acos(std::clamp(d.z() / d.norm(), -1.0, 1.0)) * 180.0 / pi) +
-           " degrees off the axis, at or beyond the " + to_string(distortion_) + " model's max_angle " +
-           num(angle_max_ * 180.0 / pi) + " degrees");
+    const double angle = std::acos(std::clamp(d.z() / d.norm(), -1.0, 1.0));
+    if (angle < angle_max_)  // omnidir's tangential terms fold inside max_angle
+      fail(which + " lies " + num(angle * 180.0 / pi) + " degrees off the axis, where the " + to_string(distortion_) +
+           " model's tangential distortion folds (not one-to-one)");
+    fail(which + " lies " + num(angle * 180.0 / pi) + " degrees off the axis, at or beyond the " +
+         to_string(distortion_) + " model's max_angle " + num(angle_max_ * 180.0 / pi) + " degrees");
   }
 }
 

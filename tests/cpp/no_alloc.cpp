@@ -284,7 +284,7 @@ void bearings_allocate_nothing() {
     in.measurements_desired = in.measurements;  // same size: no allocation
     in.measurements_desired(0) += 0.0;
     const Status st = servo.update(in, out);
-    px(0, 0) = 1e9;  // refused
+    px(0, 0) = std::numeric_limits<double>::quiet_NaN();  // refused by every model
     const int bad = cam.to_bearing(px, b);
     const long during = news.load() - before;
     ibvs_test::report(during == 0, "no allocation in to_bearing / from_bearing / spherical servo", __FILE__, __LINE__,
