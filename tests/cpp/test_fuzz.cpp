@@ -1,6 +1,6 @@
-// Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
-// damped_pinv / singular_values, se3_exp, and the wide-angle path (fisheye /
-// omnidir CameraModel bearings, spherical feature blocks): arbitrary bytes become a layout,
+// Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
+// validate, update), PartitionedServo, damped_pinv / singular_values, se3_exp
+// and the wide-angle camera path (fisheye / omnidir bearings): arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
 //  * every function either throws std::invalid_argument or answers with finite numbers;
@@ -16,6 +16,9 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/task.hpp"
+#include "ibvs/features/line.hpp"
+#include "ibvs/features/spherical.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -211,8 +214,8 @@ void fuzz_pinv_exp(Bytes& b) {
 
 // Wide field of view: a fisheye or omnidirectional CameraModel built from fuzzed parameters (or
 // refused), to_bearing / from_bearing on fuzzed pixels and directions (accepted: finite, unit
-// bearings; validate_* throws exactly for what they refuse), and a Servo of spherical blocks on
-// fuzzed measurements (validate throws exactly when update refuses; accepted: finite twist).
+// bearings; validate_* throws exactly for what they refuse). The spherical feature blocks are
+// kinds of the task fuzzer below (fuzz_kinds).
 void fuzz_wide(Bytes& b) {
   std::optional<CameraModel> cam;
   try {
@@ -253,40 +256,110 @@ void fuzz_wide(Bytes& b) {
     }
     CHECK(threw == !okb);
   }
-  Task task;
-  const int n = b.small(1, 3);
-  for (int i = 0; i < n; ++i) {
-    if (b.byte() % 2) task.add(SphericalPointFeature());
-    else task.add(SphericalPolarFeature());
-  }
-  Servo servo(task);
-  ServoInput in(task);
-  ServoOutput out(task);
-  for (int i = 0; i < n; ++i)
-    for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
-      Eigen::Vector3d d(b.coordinate(), b.coordinate(), b.coordinate());
-      if (b.byte() < 220 && d.allFinite() && d.norm() > 0.0 && std::isfinite(d.norm())) d /= d.norm();
-      m->segment<3>(4 * i) = d;
-      (*m)(4 * i + 3) = b.depth();
-    }
-  bool threw = false;
+}
+
+// ---- Tasks of feature blocks --------------------------------------------------
+// Each kind the task fuzzer draws from: a block and a measurement of it, mostly
+// plausible (so that the accepted path is reached), sometimes hostile (every
+// entry can be any double). A new feature kind adds one entry to fuzz_kinds.
+struct FuzzKind {
+  std::unique_ptr<Feature> (*make)(Bytes&);
+  void (*measure)(Bytes&, double* m);  // Feature::size() doubles
+};
+
+void line_measurement(Bytes& b, double* m) {
+  m[0] = b.coordinate();
+  m[1] = b.byte() < 200 ? (b.byte() - 127.5) / 20.0 : b.real();
+  for (int i = 2; i < 4; ++i) m[i] = b.byte() < 200 ? b.coordinate() : b.real();
+  m[4] = 1.0 / b.depth();
+}
+
+// A bearing (unit most of the time, else any three doubles) and a distance.
+void spherical_measurement(Bytes& b, double* m) {
+  Eigen::Vector3d d(b.coordinate(), b.coordinate(), b.byte() < 200 ? (b.byte() - 100.0) / 50.0 : b.real());
+  const double n = d.norm();
+  if (b.byte() < 220 && std::isfinite(n) && n > 0.0) d /= n;
+  for (int i = 0; i < 3; ++i) m[i] = d(i);
+  m[3] = b.depth();
+}
+
+const FuzzKind fuzz_kinds[] = {
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<SphericalPointFeature>(); }, spherical_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> {
+       return std::make_unique<SphericalPolarFeature>(b.byte() < 200 ? 1e-3 : 0.2);
+     },
+     spherical_measurement},
+};
+
+void fuzz_task(Bytes& b) {
+  std::optional<Task> task;
+  std::vector<const FuzzKind*> kind_of;  // the kind of each block, to draw its measurements
   try {
-    servo.validate(in);
+    const int n = b.small(0, 4);
+    task.emplace(n == 0 ? Task() : Task(b.byte() < 128 ? Layout::cartesian(n) : Layout::polar(n)));
+    const int blocks = b.small(0, 3);
+    constexpr int kinds = static_cast<int>(sizeof fuzz_kinds / sizeof fuzz_kinds[0]);
+    for (int k = 0; k < blocks; ++k) {
+      const FuzzKind& kind = fuzz_kinds[b.small(0, kinds - 1)];
+      task->add(*kind.make(b), b.byte() < 200 ? 1.0 + b.byte() / 64.0 : b.real());
+      kind_of.push_back(&kind);
+    }
+    if (n > 0 && b.byte() > 200) {
+      std::vector<double> w(static_cast<std::size_t>(n));
+      for (double& x : w) x = b.byte() < 200 ? 0.5 + b.byte() / 100.0 : b.real();
+      task->set_point_weights(w);
+    }
+    if (b.byte() > 180) {
+      Dof dof{};
+      for (bool& d : dof) d = b.byte() < 160;
+      task->set_dof(dof);
+    }
   } catch (const std::invalid_argument&) {
-    threw = true;
+    return;
   }
-  const Status st = servo.update(in, out);
-  CHECK(threw == (st == Status::invalid_input));
-  if (st != Status::invalid_input) CHECK(out.velocity.allFinite());
+  ServoOptions o;
+  o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
+  o.diagnostics = b.byte() < 200;
+  if (b.byte() > 200) o.max_linear_speed = b.real();
+  std::optional<Servo> servo;
+  try {
+    servo.emplace(*task, o);
+  } catch (const std::invalid_argument&) {
+    return;  // no block (an empty Task) or bad options: refused at construction
+  }
+  ServoInput in(*task);
+  ServoOutput out(*task);
+  for (int frame = 0; frame < 3; ++frame) {
+    for (Eigen::Index i = 0; i < in.uv.size(); ++i) in.uv.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
+    for (Eigen::Index i = 0; i < in.depth_desired.size(); ++i) in.depth_desired(i) = b.depth();
+    for (int k = 0; k < task->n_features(); ++k) {
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements.data() + task->offset(k));
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements_desired.data() + task->offset(k));
+    }
+    bool valid = true;
+    try {
+      servo->validate(in);
+    } catch (const std::invalid_argument&) {
+      valid = false;
+    }
+    const Status st = servo->update(in, out);
+    ibvs_test::report(valid == (st != Status::invalid_input), "task: validate() throws iff update() refuses",
+                      __FILE__, __LINE__, task->describe());
+    check_output(out, st, o.diagnostics, "Servo(Task)::update");
+  }
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 4) {
+  switch (b.byte() % 5) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
+    case 2: fuzz_task(b); break;
     case 3: fuzz_wide(b); break;
     default: fuzz_pinv_exp(b); break;
   }
