@@ -208,6 +208,7 @@ class CameraModel {
   // (squared r2_hi; rd_hi its distorted radius).
   bool undistort_radtan(double xd, double yd, double r_hi, double r2_hi, double rd_hi,
                         Eigen::Vector2d& uv) const noexcept;
+  int normalize_radtan_batch(const Eigen::Ref<const Points>& pixels, Eigen::Ref<Points> uv) const noexcept;
   bool lift_omnidir(double u, double v, Eigen::Vector3d& b) const noexcept;
   bool equidistant_bearing(double u, double v, Eigen::Vector3d& b) const noexcept;
   bool undistort_equidistant(double xd, double yd, Eigen::Vector2d& uv) const noexcept;
