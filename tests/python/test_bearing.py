@@ -215,3 +215,12 @@ def test_servo_from_fisheye_pixels_100_degrees_off_axis(kind, fish):
         T = T @ ibvs.se3_exp(r.velocity / 60)
     assert r.error_norm < 1e-9
     assert np.abs(T - np.eye(4)).max() < 1e-6
+
+
+def test_omnidir_camera_info_round_trip(omni):
+    pytest.importorskip("rosbags")
+    from ibvs import ros
+
+    msg = ros.camera_info(omni)
+    assert msg.distortion_model == "omnidir" and list(msg.d) == [XI, *D_OMNI]
+    assert ros.camera_model(msg) == omni
