@@ -88,8 +88,8 @@ std::string pair(double a, double b) {
   return "(" + float_repr(a) + ", " + float_repr(b) + ")";
 }
 
-// Maps every point with f (project or normalize); a point f refuses raises a ValueError naming it,
-// or becomes NaN with invalid="nan".
+// Maps every point with the batched f (project or normalize); a point f refuses (NaN) raises a
+// ValueError naming it, or stays NaN with invalid="nan".
 template <class F>
 py::array_t<double> map_points(py::handle obj, const char* name, const std::string& invalid, F f,
                                const std::string& why) {
@@ -98,15 +98,13 @@ py::array_t<double> map_points(py::handle obj, const char* name, const std::stri
   const PointArgs in = point_args(obj, name);
   py::array_t<double> out(std::vector<py::ssize_t>(in.a.shape(), in.a.shape() + in.a.ndim()));
   Eigen::Map<Points> o(out.mutable_data(), 2, in.p.cols());
-  Eigen::Vector2d q;
+  if (f(in.p, o) == 0 || invalid == "nan") return out;
   for (Eigen::Index i = 0; i < in.p.cols(); ++i) {
-    if (!f(in.p(0, i), in.p(1, i), q) && invalid == "raise") {
-      const double x = in.p(0, i), y = in.p(1, i);
-      const std::string which = in.a.ndim() == 1 ? std::string(name) : std::string(name) + "[" + std::to_string(i) + "]";
-      if (!std::isfinite(x) || !std::isfinite(y)) throw py::value_error(which + " is not finite");
-      throw py::value_error(which + " = " + pair(x, y) + why);
-    }
-    o.col(i) = q;
+    if (!std::isnan(o(0, i))) continue;
+    const double x = in.p(0, i), y = in.p(1, i);
+    const std::string which = in.a.ndim() == 1 ? std::string(name) : std::string(name) + "[" + std::to_string(i) + "]";
+    if (!std::isfinite(x) || !std::isfinite(y)) throw py::value_error(which + " is not finite");
+    throw py::value_error(which + " = " + pair(x, y) + why);
   }
   return out;
 }
@@ -328,7 +326,7 @@ own fps or frame_rate, else 60 with a UserWarning saying so (calibration files r
           "project",
           [](const CameraModel& c, py::handle uv, const std::string& invalid) {
             return map_points(
-                uv, "uv", invalid, [&](double x, double y, Eigen::Vector2d& q) { return c.project(x, y, q); },
+                uv, "uv", invalid, [&](const Eigen::Ref<const Points>& a, Eigen::Ref<Points> b) { return c.project(a, b); },
                 " lies beyond the radius where the distortion stops being one-to-one" + radius_note(c));
           },
           py::arg("uv"), py::arg("invalid") = "raise",
@@ -338,7 +336,8 @@ A point at or beyond max_radius raises ValueError naming it, or becomes NaN with
           "normalize",
           [](const CameraModel& c, py::handle pixels, const std::string& invalid) {
             return map_points(
-                pixels, "pixels", invalid, [&](double u, double v, Eigen::Vector2d& q) { return c.normalize(u, v, q); },
+                pixels, "pixels", invalid,
+                [&](const Eigen::Ref<const Points>& a, Eigen::Ref<Points> b) { return c.normalize(a, b); },
                 " has no inverse in this camera model" + radius_note(c));
           },
           py::arg("pixels"), py::arg("invalid") = "raise",
