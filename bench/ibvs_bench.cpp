@@ -834,8 +834,9 @@ void bench_camera(const Options& o) {
       keep(out);
     });
   }
-  // Pixels -> unit bearings (the wide-angle front end) per model: the three above, a ~200-degree
-  // fisheye's and Mei's omnidirectional model's, on pixels spread over each one's whole image.
+  // Pixels -> unit bearings (the wide-angle front end) per model: the three above, a 200-degree
+  // fisheye's and Mei's omnidirectional model's, on the pixels of directions up to 0.9 max_angle
+  // (for plumb_bob, 81 degrees: far outside its sensor, where Newton needs its bracketed path).
   {
     Eigen::Matrix3d Kw, Ko;
     Kw << 300, 0, 640, 0, 300.5, 512, 0, 0, 1;
