@@ -50,6 +50,7 @@ from ._core import (
     wrap_angle,
 )
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
+from ._core import EllipseFeature, SegmentFeature  # feature blocks of a Task: the segment and the ellipse
 
 __all__ = [
     "AdaptiveGain",
@@ -86,6 +87,7 @@ __all__ = [
     "spherical_measurements",
     "wrap_angle",
 ]
+__all__ += ["EllipseFeature", "SegmentFeature"]
 
 
 def _reduce_layout(layout: Layout):

@@ -140,6 +140,7 @@ PRINTS = {
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
     ("docs/wide.md", "measurements_desired=goal"): ["target centre 100.6 deg off the axis", "converged at frame"],
     ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
+    ("docs/features.md", "the same segment, from its other end"): ["error against its reverse: 0.0"],
 }
 
 
