@@ -927,6 +927,73 @@ void bench_camera(const Options& o) {
       keep(out);
     });
   }
+  // Pixels -> unit bearings (the wide-angle front end) per model: the three above, a 200-degree
+  // fisheye's and Mei's omnidirectional model's, on the pixels of directions up to 0.9 max_angle
+  // (for plumb_bob, 81 degrees: far outside its sensor, where Newton needs its bracketed path).
+  {
+    Eigen::Matrix3d Kw, Ko;
+    Kw << 300, 0, 640, 0, 300.5, 512, 0, 0, 1;
+    Ko << 700, 0, 640, 0, 701, 512, 0, 0, 1;
+    const ibvs::CameraModel wide[2] = {
+        ibvs::CameraModel::from_opencv(Kw, Eigen::Vector4d(-0.013, 0.02, -0.012, 0.002), 1280, 1024, true),
+        ibvs::CameraModel::from_omnidir(Ko, 1.6,
+                                        Eigen::Vector4d(-0.2, 0.05, 1e-4, 2e-4), 1280, 1024)};
+    const ibvs::CameraModel* all[5] = {&cams[0], &cams[1], &cams[2], &wide[0], &wide[1]};
+    for (int c = 0; c < 5; ++c) {
+      const ibvs::CameraModel& cam = *all[c];
+      std::vector<ibvs::Points> pxb;
+      for (int k = 0; k < Frames::count; ++k) {  // directions up to 0.9 max_angle, at the frames' azimuths
+        ibvs::Points p(2, 4);
+        for (int j = 0; j < 4; ++j) {
+          const double a = 0.9 * cam.max_angle() * (0.1 + 0.9 * ((k * 4 + j) % 17) / 16.0);
+          const double az = std::atan2(fr.uv[static_cast<std::size_t>(k)](1, j), fr.uv[static_cast<std::size_t>(k)](0, j));
+          Eigen::Vector2d q;
+          if (!cam.from_bearing(std::sin(a) * std::cos(az), std::sin(a) * std::sin(az), std::cos(a), q))
+            q << cam.u0(), cam.v0();
+          p.col(j) = q;
+        }
+        pxb.push_back(p);
+      }
+      ibvs::Bearings b(3, 4);
+      const char* name = c == 3 ? "fisheye 200deg" : c == 4 ? "omnidir" : to_string(cam.distortion());
+      Result& r = add("camera", "CameraModel::to_bearing", name, 4, 0, c == 0 ? "closed form" : "Newton", 0.0, -1);
+      time_case(r, o, [&](long i) {
+        keep(cam.to_bearing(pxb[static_cast<std::size_t>(i & (Frames::count - 1))], b));
+        keep(b);
+      });
+    }
+    // One spherical servo step from fisheye pixels: spherical_measurements (to_bearing) + Servo::update
+    // of a Task of 4 spherical-polar blocks.
+    ibvs::Task task;
+    for (int j = 0; j < 4; ++j) task.add(ibvs::SphericalPolarFeature());
+    ibvs::Servo servo(task, servo_options(o.gain, o.damping, false));
+    ibvs::ServoInput in(task);
+    ibvs::ServoOutput so(task);
+    std::vector<ibvs::Points> pxs, pxd;
+    for (int k = 0; k < Frames::count; ++k) {
+      ibvs::Points p(2, 4), q(2, 4);
+      for (int j = 0; j < 4; ++j) {
+        const auto& u = fr.uv[static_cast<std::size_t>(k)];
+        const auto& ud = fr.uvd[static_cast<std::size_t>(k)];
+        Eigen::Vector2d a, d;
+        wide[0].from_bearing(u(0, j), u(1, j), 0.3, a);  // the frames' points, ~70 degrees and more off the axis
+        wide[0].from_bearing(ud(0, j), ud(1, j), 1.0, d);
+        p.col(j) = a;
+        q.col(j) = d;
+      }
+      pxs.push_back(p);
+      pxd.push_back(q);
+    }
+    Result& r = add("camera", "spherical servo step (fisheye pixels)", "spherical_polar", 4, task.rows(),
+                    "Newton+LLT", o.damping, 0);
+    time_case(r, o, [&](long i) {
+      const auto k = static_cast<std::size_t>(i & (Frames::count - 1));
+      ibvs::spherical_measurements(wide[0], pxs[k], fr.z[k], in.measurements);
+      ibvs::spherical_measurements(wide[0], pxd[k], fr.zd[k], in.measurements_desired);
+      servo.update(in, so);
+      keep(so.velocity);
+    });
+  }
   {
     const Layout layout = make_layout("stacked", 4);
     ibvs::Servo servo(layout, servo_options(o.gain, o.damping, false));
@@ -1154,7 +1221,7 @@ int main(int argc, char** argv) {
   }
 
   if (has(o.sections, "camera")) {
-    print_header(table, "Camera model, pixel step and estimators (N = 4; camera models: ViSP afma6, plumb_bob, equidistant)");
+    print_header(table, "Camera model, pixel step and estimators (N = 4; camera models: ViSP afma6, plumb_bob, equidistant; to_bearing also a 200-degree fisheye and omnidir)");
     const std::size_t first = g_results.size();
     bench_camera(o);
     for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);

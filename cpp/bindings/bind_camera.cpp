@@ -33,12 +33,63 @@ PointArgs point_args(py::handle obj, const char* name) {
   return {a, Eigen::Map<const Points>(a.data(), 2, n)};
 }
 
+// (N, 3) or one bearing (3,): the 3 x N view.
+struct BearingArgs {
+  CArray a;
+  Eigen::Map<const Bearings> b;
+};
+
+BearingArgs bearing_args(py::handle obj, const char* name) {
+  CArray a = as_array(obj, name);
+  const bool one = a.ndim() == 1 && a.shape(0) == 3;
+  if (!one && !(a.ndim() == 2 && a.shape(1) == 3))
+    throw py::value_error(std::string(name) + " must have shape (N, 3) or (3,), got " + shape_of(a));
+  const Eigen::Index n = one ? 1 : static_cast<Eigen::Index>(a.shape(0));
+  return {a, Eigen::Map<const Bearings>(a.data(), 3, n)};
+}
+
+void check_invalid(const std::string& invalid) {
+  if (invalid != "raise" && invalid != "nan")
+    throw py::value_error("invalid must be 'raise' or 'nan', got '" + invalid + "'");
+}
+
+// Pixels -> bearings: (N, 2) / (N, 1, 2) -> (N, 3), (2,) -> (3,); the throwing path names the first refused pixel.
+py::array_t<double> to_bearings(const CameraModel& c, py::handle obj, const std::string& invalid) {
+  check_invalid(invalid);
+  const PointArgs in = point_args(obj, "pixels");
+  py::array_t<double> out = in.a.ndim() == 1 ? py::array_t<double>(3) : py::array_t<double>({in.p.cols(), Eigen::Index(3)});
+  Eigen::Map<Bearings> o(out.mutable_data(), 3, in.p.cols());
+  if (c.to_bearing(in.p, o) > 0 && invalid == "raise") {
+    try {  // the throwing path names the first refused pixel
+      c.validate_pixels(in.p, "pixels");
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(std::string(e.what()).substr(6));  // without the "ibvs: " prefix, as the other messages
+    }
+  }
+  return out;
+}
+
+py::array_t<double> from_bearings(const CameraModel& c, py::handle obj, const std::string& invalid) {
+  check_invalid(invalid);
+  const BearingArgs in = bearing_args(obj, "bearings");
+  py::array_t<double> out = in.a.ndim() == 1 ? py::array_t<double>(2) : py::array_t<double>({in.b.cols(), Eigen::Index(2)});
+  Eigen::Map<Points> o(out.mutable_data(), 2, in.b.cols());
+  if (c.from_bearing(in.b, o) > 0 && invalid == "raise") {
+    try {
+      c.validate_bearings(in.b, "bearings");
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(std::string(e.what()).substr(6));
+    }
+  }
+  return out;
+}
+
 std::string pair(double a, double b) {
   return "(" + float_repr(a) + ", " + float_repr(b) + ")";
 }
 
-// Maps every point with f (project or normalize); a point f refuses raises a ValueError naming it,
-// or becomes NaN with invalid="nan".
+// Maps every point with the batched f (project or normalize); a point f refuses (NaN) raises a
+// ValueError naming it, or stays NaN with invalid="nan".
 template <class F>
 py::array_t<double> map_points(py::handle obj, const char* name, const std::string& invalid, F f,
                                const std::string& why) {
@@ -47,15 +98,13 @@ py::array_t<double> map_points(py::handle obj, const char* name, const std::stri
   const PointArgs in = point_args(obj, name);
   py::array_t<double> out(std::vector<py::ssize_t>(in.a.shape(), in.a.shape() + in.a.ndim()));
   Eigen::Map<Points> o(out.mutable_data(), 2, in.p.cols());
-  Eigen::Vector2d q;
+  if (f(in.p, o) == 0 || invalid == "nan") return out;
   for (Eigen::Index i = 0; i < in.p.cols(); ++i) {
-    if (!f(in.p(0, i), in.p(1, i), q) && invalid == "raise") {
-      const double x = in.p(0, i), y = in.p(1, i);
-      const std::string which = in.a.ndim() == 1 ? std::string(name) : std::string(name) + "[" + std::to_string(i) + "]";
-      if (!std::isfinite(x) || !std::isfinite(y)) throw py::value_error(which + " is not finite");
-      throw py::value_error(which + " = " + pair(x, y) + why);
-    }
-    o.col(i) = q;
+    if (!std::isnan(o(0, i))) continue;
+    const double x = in.p(0, i), y = in.p(1, i);
+    const std::string which = in.a.ndim() == 1 ? std::string(name) : std::string(name) + "[" + std::to_string(i) + "]";
+    if (!std::isfinite(x) || !std::isfinite(y)) throw py::value_error(which + " is not finite");
+    throw py::value_error(which + " = " + pair(x, y) + why);
   }
   return out;
 }
@@ -187,10 +236,36 @@ distortion coefficients dist: (k1, k2, p1, p2[, k3]) as cv2.calibrateCamera give
 fisheye=True the 4 of cv2.fisheye (k1, k2, k3, k4, "equidistant"). None or all zeros: no
 distortion. width, height: image size in pixels.)")
       .def_static(
+          "from_omnidir",
+          [](py::handle K, py::handle xi, py::handle D, py::handle width, py::handle height, py::handle fps) {
+            const CArray d = as_array(D, "D");
+            if (d.size() != 4) throw py::value_error("D must hold 4 coefficients (k1, k2, p1, p2), got " + std::to_string(d.size()));
+            double x = 0.0;
+            if (py::isinstance<py::array>(xi)) {  // cv2.omnidir.calibrate's (1, 1) array
+              const CArray a = as_array(xi, "xi");
+              if (a.size() != 1) throw py::value_error("xi must be one number, got shape " + shape_of(a));
+              x = a.data()[0];
+            } else {
+              x = real(xi, "xi");
+            }
+            return CameraModel::from_omnidir(k_arg(K), x, dist_arg(D), real(width, "width"),
+                                             real(height, "height"), real(fps, "fps"));
+          },
+          py::arg("K"), py::arg("xi"), py::arg("D"), py::arg("width"), py::arg("height"), py::arg("fps") = 60.0,
+          R"(Mei's unified omnidirectional model ("omnidir"), as cv2.omnidir.calibrate returns it: K (3, 3)
+without skew (K[0][1] = 0), xi >= 0 (a float or OpenCV's (1, 1) array) and D = (k1, k2, p1, p2).
+A bearing b maps to (bx, by) / (bz + xi), then the radial-tangential distortion, then K (Mei &
+Rives, ICRA 2007). It sees up to max_angle off the axis: acos(-xi) for xi <= 1, acos(-1/xi) for
+xi > 1 (where the model folds), less where its distortion folds first.)")
+      .def_static(
           "from_yaml",
           [](py::handle path, py::handle fps) {
             if (!fps.is_none()) real(fps, "fps");  // a bad type is refused before the file is read
             const py::dict d = py::module_::import("ibvs.camera_files").attr("read")(path, fps);
+            if (!d["xi"].is_none())
+              return CameraModel::from_omnidir(k_arg(d["K"]), real(d["xi"], "xi"), dist_arg(d["dist"]),
+                                               real(d["width"], "image_width"), real(d["height"], "image_height"),
+                                               real(d["fps"], "fps"));
             return CameraModel::from_opencv(k_arg(d["K"]), dist_arg(d["dist"]), real(d["width"], "image_width"),
                                             real(d["height"], "image_height"), boolean(d["fisheye"], "fisheye_model"),
                                             real(d["fps"], "fps"));
@@ -199,7 +274,8 @@ distortion. width, height: image size in pixels.)")
           R"(From a calibration file: a ROS camera_info YAML (camera_matrix, distortion_model,
 distortion_coefficients, image_width, image_height) or an OpenCV calibration file written by
 cv::FileStorage (YAML, XML or JSON; camera_matrix, distortion_coefficients, image_width,
-image_height, optional fisheye_model). Read with OpenCV's cv2.FileStorage: needs
+image_height, optional fisheye_model), or Mei's omnidirectional model: distortion_model "omnidir"
+(or "mei", "omni") with its xi key and distortion_coefficients (k1, k2, p1, p2). Read with OpenCV's cv2.FileStorage: needs
 pip install ".[vision]" from the ibvs repository root.
 
 fps, the frame rate (the simulator's control period is 1 / fps): the fps= given, else the file's
@@ -218,7 +294,7 @@ own fps or frame_rate, else 60 with a UserWarning saying so (calibration files r
       .def_property_readonly("u0", &CameraModel::u0, "Principal point u, pixels (OpenCV cx).")
       .def_property_readonly("v0", &CameraModel::v0, "Principal point v, pixels (OpenCV cy).")
       .def_property_readonly("distortion", [](const CameraModel& c) { return to_string(c.distortion()); },
-                             "'none', 'visp', 'plumb_bob' or 'equidistant'.")
+                             "'none', 'visp', 'plumb_bob', 'equidistant' or 'omnidir'.")
       .def_property_readonly(
           "coefficients",
           [](const CameraModel& c) {
@@ -226,7 +302,17 @@ own fps or frame_rate, else 60 with a UserWarning saying so (calibration files r
             return py::tuple(py::cast(std::vector<double>(k.data(), k.data() + k.size())));
           },
           "The distortion coefficients: () none, (kud, kdu) visp, (k1, k2, p1, p2, k3) plumb_bob, "
-          "(k1, k2, k3, k4) equidistant.")
+          "(k1, k2, k3, k4) equidistant, (xi, k1, k2, p1, p2) omnidir.")
+      .def_property_readonly("xi", &CameraModel::xi, "Mei's xi (omnidir; 0 for the other models).")
+      .def_property_readonly("max_angle", &CameraModel::max_angle,
+                             "Angle off the optical axis (radians, <= pi) below which to_bearing / from_bearing are "
+                             "one-to-one: the lens's field of view is 2 max_angle.")
+      .def_property_readonly("fold_radius", &CameraModel::fold_radius,
+                             "Distorted normalised radius that max_angle images to: the image circle (px * fold_radius "
+                             "pixels along u); inf when there is none.")
+      .def_property_readonly("field_of_view", &CameraModel::field_of_view,
+                             "Full angle (radians) the sensor sees: twice the largest angle off the axis of its border's "
+                             "pixels, or 2 max_angle when the image circle lies inside the sensor.")
       .def_property_readonly("K", &CameraModel::K, "OpenCV's camera matrix (3, 3) [[px, 0, u0], [0, py, v0], [0, 0, 1]].")
       .def_property_readonly("width", &CameraModel::width, "u_max - u_min, pixels.")
       .def_property_readonly("height", &CameraModel::height, "v_max - v_min, pixels.")
@@ -240,7 +326,7 @@ own fps or frame_rate, else 60 with a UserWarning saying so (calibration files r
           "project",
           [](const CameraModel& c, py::handle uv, const std::string& invalid) {
             return map_points(
-                uv, "uv", invalid, [&](double x, double y, Eigen::Vector2d& q) { return c.project(x, y, q); },
+                uv, "uv", invalid, [&](const Eigen::Ref<const Points>& a, Eigen::Ref<Points> b) { return c.project(a, b); },
                 " lies beyond the radius where the distortion stops being one-to-one" + radius_note(c));
           },
           py::arg("uv"), py::arg("invalid") = "raise",
@@ -250,19 +336,32 @@ A point at or beyond max_radius raises ValueError naming it, or becomes NaN with
           "normalize",
           [](const CameraModel& c, py::handle pixels, const std::string& invalid) {
             return map_points(
-                pixels, "pixels", invalid, [&](double u, double v, Eigen::Vector2d& q) { return c.normalize(u, v, q); },
+                pixels, "pixels", invalid,
+                [&](const Eigen::Ref<const Points>& a, Eigen::Ref<Points> b) { return c.normalize(a, b); },
                 " has no inverse in this camera model" + radius_note(c));
           },
           py::arg("pixels"), py::arg("invalid") = "raise",
           R"(Pixels -> normalised points (undistorted): (N, 2), (N, 1, 2) or (2,); the result has its shape.
 A pixel without an inverse (beyond the image of max_radius) raises ValueError naming it, or becomes
 NaN with invalid="nan".)")
+      .def("to_bearing", &to_bearings, py::arg("pixels"), py::arg("invalid") = "raise",
+           R"(Pixels -> unit bearing vectors b = P / |P| of the rays imaged there: (N, 2) or (N, 1, 2) -> (N, 3),
+(2,) -> (3,). The whole field of view (beyond 90 degrees off the axis for the equidistant and
+omnidir models). A pixel beyond the image circle (fold_radius) raises ValueError naming it, or
+becomes NaN with invalid="nan".)")
+      .def("from_bearing", &from_bearings, py::arg("bearings"), py::arg("invalid") = "raise",
+           R"(Directions (any finite, non-zero length) -> pixels: (N, 3) -> (N, 2), (3,) -> (2,). A zero or
+non-finite vector, or one at or beyond max_angle off the axis, raises ValueError naming it, or
+becomes NaN with invalid="nan".)")
       .def("contains", &mask, py::arg("pixels"),
            "Whether each pixel lies inside the sensor bounds (inclusive): bool (N,), or a bool for one point (2,).")
       .def(
           "to_opencv",
-          [](const CameraModel& c) { return py::make_tuple(c.K(), c.opencv_coefficients()); },
-          R"((K, dist) for OpenCV: plumb_bob its 5 coefficients, equidistant its 4 (use cv2.fisheye),
+          [](const CameraModel& c) -> py::tuple {
+            if (c.distortion() == Distortion::omnidir) return py::make_tuple(c.K(), c.xi(), c.opencv_coefficients());
+            return py::make_tuple(c.K(), c.opencv_coefficients());
+          },
+          R"((K, dist) for OpenCV (omnidir: (K, xi, D) for cv2.omnidir): plumb_bob its 5 coefficients, equidistant its 4 (use cv2.fisheye),
 none 5 zeros; visp (kud, 0, 0, 0, 0), which is exact for project() (OpenCV's undistortion then
 inverts kud exactly, where normalize() applies ViSP's separately calibrated kdu).)")
       .def(py::self == py::self)
@@ -281,6 +380,7 @@ inverts kud exactly, where normalize() applies ViSP's separately calibrated kdu)
             const Distortion dist = d == "visp"          ? Distortion::visp
                                     : d == "plumb_bob"   ? Distortion::plumb_bob
                                     : d == "equidistant" ? Distortion::equidistant
+                                    : d == "omnidir"     ? Distortion::omnidir
                                                          : Distortion::none;
             const std::vector<double> k = t[5].cast<std::vector<double>>();
             return CameraModel::make(t[0].cast<double>(), t[1].cast<double>(), t[2].cast<double>(), t[3].cast<double>(),

@@ -2,6 +2,7 @@
 #include "convert.hpp"
 
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/spherical.hpp"
 #include "ibvs/task.hpp"
 
 #include <pybind11/stl.h>
@@ -148,6 +149,77 @@ goal's, theta's difference wrapped into (-pi, pi].)")
           },
           py::arg("p1"), py::arg("p2"), py::arg("plane"),
           "The measurement (rho >= 0, theta, A, B, C) of the line through two distinct image points.");
+
+  py::class_<SphericalPointFeature, Feature, std::shared_ptr<SphericalPointFeature>>(
+      m, "SphericalPointFeature", R"(A point on the unit sphere: its bearing b = P / |P| (3 rows).
+
+Measurement (4): bx, by, bz (a unit vector, e.g. from CameraModel.to_bearing) and the distance
+R = |P| in metres; SphericalPointFeature.measure(P) builds it from a camera-frame point. Any angle
+off the optical axis, behind the camera too. Interaction matrix [-(I - b b^T) / R, [b]_x] (Hamel &
+Mahony, IEEE T-RA 2002, eq. 9), rank 2.)")
+      .def(py::init<>())
+      .def_static(
+          "measure",
+          [](py::handle P) {
+            const CArray a = as_array(P, "P");
+            if (a.size() != 3) throw py::value_error("P must be a camera-frame point (X, Y, Z)");
+            const auto m = SphericalPointFeature::measure(a.data()[0], a.data()[1], a.data()[2]);
+            return py::array_t<double>(4, m.data());
+          },
+          py::arg("P"), "The measurement (bx, by, bz, R) of the camera-frame point P (finite, non-zero).");
+
+  py::class_<SphericalPolarFeature, Feature, std::shared_ptr<SphericalPolarFeature>>(
+      m, "SphericalPolarFeature", R"(A point on the unit sphere as (colatitude, azimuth) (2 rows).
+
+The paper's polar coordinates lifted to the sphere: colatitude beta = angle from the optical axis
+in [0, pi], azimuth phi = atan2(by, bx) about it (a rotation about the axis moves phi alone).
+Measurement (4): bx, by, bz, R as SphericalPointFeature. Interaction matrix: Corke, ICRA 2010
+(MVTB's SphericalCamera.visjac_p), camera-twist convention; the azimuth error is wrapped into
+(-pi, pi]. Near the axis (sin beta < min_sin) the current point uses its (bx, by) rows and a goal
+there has no azimuth (its error is 0).)")
+      .def(py::init([](py::handle min_sin) { return SphericalPolarFeature(real(min_sin, "min_sin")); }),
+           py::arg("min_sin") = default_polar_min_radius)
+      .def_property_readonly("min_sin", &SphericalPolarFeature::min_sin,
+                             "sin(colatitude) below which the current point uses its (bx, by) rows.");
+
+  m.def(
+      "spherical_measurements",
+      [](const CameraModel& camera, py::handle pixels, py::handle distance, const std::string& invalid) {
+        if (invalid != "raise" && invalid != "nan")
+          throw py::value_error("invalid must be 'raise' or 'nan', got '" + invalid + "'");
+        const CArray a = as_array(pixels, "pixels");
+        const auto px = points(a, "pixels");
+        const CArray d = as_array(distance, "distance");
+        const auto R = vector(d, "distance");
+        if (R.size() != px.cols())
+          throw py::value_error("distance must hold one value per pixel (" + std::to_string(px.cols()) + "), got " +
+                                std::to_string(R.size()));
+        if (invalid == "raise") {
+          try {
+            camera.validate_pixels(px, "pixels");
+          } catch (const std::invalid_argument& e) {
+            throw py::value_error(std::string(e.what()).substr(6));
+          }
+          for (Eigen::Index i = 0; i < R.size(); ++i)
+            if (!(R(i) >= min_depth && R(i) <= max_depth))
+              throw py::value_error("distance[" + std::to_string(i) + "] must be within [" + float_repr(min_depth) +
+                                    ", " + float_repr(max_depth) + "] m, got " + float_repr(R(i)));
+        }
+        py::array_t<double> out({px.cols(), Eigen::Index(4)});
+        Eigen::Map<Eigen::VectorXd> o(out.mutable_data(), 4 * px.cols());
+        spherical_measurements(camera, px, R, o);
+        return out;
+      },
+      py::arg("camera"), py::arg("pixels"), py::arg("distance"), py::arg("invalid") = "raise",
+      R"(Measurements of spherical feature blocks from pixels, through the lens model.
+
+camera: an ibvs.CameraModel; pixels (N, 2) or (N, 1, 2); distance (N,): |P| of each point, metres.
+Returns (N, 4): one (bx, by, bz, R) row per point, the measurement of a SphericalPointFeature or
+SphericalPolarFeature (pass it to Servo.update as measurements, one row per block, e.g.
+list(rows)). The bearing comes from camera.to_bearing: no normalised coordinates, any angle the
+lens sees (beyond 90 degrees off the axis with a fisheye or omnidir model). A pixel beyond the
+image circle or a distance outside [1e-6, 1e6] m raises ValueError naming it, or gives a row of NaN
+with invalid="nan".)");
 
   py::class_<Task>(m, "Task", R"(What a Servo drives to zero: the points of a Layout, then feature blocks.
 

@@ -35,6 +35,8 @@ from ._core import (
     SecondaryTaskResult,
     Servo,
     ServoResult,
+    SphericalPointFeature,
+    SphericalPolarFeature,
     Status,
     Task,
     __version__,
@@ -49,6 +51,7 @@ from ._core import (
     segment_angle,
     segment_angle_jacobian,
     singular_values,
+    spherical_measurements,
     wrap_angle,
 )
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
@@ -71,6 +74,8 @@ __all__ = [
     "SecondaryTaskResult",
     "Servo",
     "ServoResult",
+    "SphericalPointFeature",
+    "SphericalPolarFeature",
     "Status",
     "Task",
     "__version__",
@@ -87,6 +92,7 @@ __all__ = [
     "segment_angle",
     "segment_angle_jacobian",
     "singular_values",
+    "spherical_measurements",
     "wrap_angle",
 ]
 __all__ += ["EllipseFeature", "SegmentFeature"]

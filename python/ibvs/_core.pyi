@@ -141,8 +141,9 @@ class AdaptiveGain:
 class CameraModel:
     """Pinhole camera with lens distortion: normalised image coordinates (x, y) = (X/Z, Y/Z) in the
     camera frame (x right, y down, z forward) <-> pixels u = u0 + px xd, v = v0 + py yd.
-    distortion: "none", "visp" (kud, kdu), "plumb_bob" (k1, k2, p1, p2, k3), "equidistant" (k1..k4).
-    Also ibvs.sim.Camera (the simulator's camera)."""
+    distortion: "none", "visp" (kud, kdu), "plumb_bob" (k1, k2, p1, p2, k3), "equidistant" (k1..k4),
+    "omnidir" (Mei's unified model: xi, k1, k2, p1, p2). Pixels <-> unit bearings over the whole field
+    of view: to_bearing, from_bearing. Also ibvs.sim.Camera (the simulator's camera)."""
 
     def __init__(
         self,
@@ -171,6 +172,12 @@ class CameraModel:
     ) -> CameraModel:
         """K (3, 3) pixels; dist (k1, k2, p1, p2[, k3]) or with fisheye (k1, k2, k3, k4)."""
     @staticmethod
+    def from_omnidir(
+        K: _ArrayLike, xi: Union[float, _ArrayLike], D: _ArrayLike, width: float, height: float, fps: float = 60.0
+    ) -> CameraModel:
+        """Mei's unified omnidirectional model as cv2.omnidir.calibrate returns it: K (no skew), xi >= 0,
+        D = (k1, k2, p1, p2)."""
+    @staticmethod
     def from_yaml(path: Union[str, os.PathLike[str]], fps: float | None = None) -> CameraModel:
         """ROS camera_info or OpenCV calibration file (needs the vision extra: pip install ".[vision]").
 
@@ -197,11 +204,23 @@ class CameraModel:
         """Principal point v, pixels (OpenCV cy)."""
     @property
     def distortion(self) -> str:
-        """'none', 'visp', 'plumb_bob' or 'equidistant'."""
+        """'none', 'visp', 'plumb_bob', 'equidistant' or 'omnidir'."""
     @property
     def coefficients(self) -> Tuple[float, ...]:
         """The distortion coefficients: () none, (kud, kdu) visp, (k1, k2, p1, p2, k3) plumb_bob,
-        (k1, k2, k3, k4) equidistant."""
+        (k1, k2, k3, k4) equidistant, (xi, k1, k2, p1, p2) omnidir."""
+    @property
+    def xi(self) -> float:
+        """Mei's xi (omnidir; 0 for the other models)."""
+    @property
+    def max_angle(self) -> float:
+        """Angle off the optical axis (radians) below which to_bearing / from_bearing are one-to-one."""
+    @property
+    def fold_radius(self) -> float:
+        """Distorted normalised radius of max_angle: the image circle (inf when none)."""
+    @property
+    def field_of_view(self) -> float:
+        """Full angle (radians) the sensor sees."""
     @property
     def K(self) -> _FloatArray:
         """(3, 3) camera matrix, pixels."""
@@ -224,11 +243,15 @@ class CameraModel:
         """Normalised (N, 2), (N, 1, 2) or (2,) -> pixels of the same shape."""
     def normalize(self, pixels: _ArrayLike, invalid: str = "raise") -> _FloatArray:
         """Pixels (N, 2), (N, 1, 2) or (2,) -> normalised of the same shape."""
+    def to_bearing(self, pixels: _ArrayLike, invalid: str = "raise") -> _FloatArray:
+        """Pixels (N, 2), (N, 1, 2) or (2,) -> unit bearings (N, 3) or (3,), the whole field of view."""
+    def from_bearing(self, bearings: _ArrayLike, invalid: str = "raise") -> _FloatArray:
+        """Directions (N, 3) or (3,) (finite, non-zero) -> pixels (N, 2) or (2,)."""
     def contains(self, pixels: _ArrayLike) -> Union[bool, npt.NDArray[np.bool_]]:
         """Whether each pixel lies inside the sensor bounds (inclusive): bool (N,), or a bool for one
         point (2,)."""
-    def to_opencv(self) -> Tuple[_FloatArray, _FloatArray]:
-        """(K, dist) for OpenCV (cv2.fisheye for equidistant)."""
+    def to_opencv(self) -> Tuple[Any, ...]:
+        """(K, dist) for OpenCV (cv2.fisheye for equidistant); omnidir: (K, xi, D) for cv2.omnidir."""
     def __eq__(self, other: object) -> bool: ...
 
 class DepthEstimator:
@@ -479,6 +502,36 @@ class MomentsFeature(Feature):
     @staticmethod
     def area(measurement: _ArrayLike, source: str = "region") -> float:
         """The object's area a: m00 (region) or mu20 + mu02 (points)."""
+
+class SphericalPointFeature(Feature):
+    """A point on the unit sphere: its bearing b = P / |P| (3 rows).
+
+    Measurement (4): bx, by, bz (unit) and the distance R = |P|. Interaction matrix
+    [-(I - b b^T) / R, [b]_x] (Hamel & Mahony 2002, eq. 9).
+    """
+
+    def __init__(self) -> None: ...
+    @staticmethod
+    def measure(P: _ArrayLike) -> _FloatArray:
+        """The measurement (bx, by, bz, R) of the camera-frame point P."""
+
+class SphericalPolarFeature(Feature):
+    """A point on the unit sphere as (colatitude, azimuth) (2 rows); measurement (bx, by, bz, R).
+
+    Interaction matrix: Corke, ICRA 2010; the azimuth error wrapped into (-pi, pi]; (bx, by) rows
+    near the axis (sin beta < min_sin).
+    """
+
+    def __init__(self, min_sin: float = 0.001) -> None: ...
+    @property
+    def min_sin(self) -> float:
+        """sin(colatitude) below which the current point uses its (bx, by) rows."""
+
+def spherical_measurements(
+    camera: CameraModel, pixels: _ArrayLike, distance: _ArrayLike, invalid: str = "raise"
+) -> _FloatArray:
+    """(N, 4) measurements (bx, by, bz, R) of spherical feature blocks from pixels (through
+    camera.to_bearing) and distances |P| (metres)."""
 
 class Task:
     """What a Servo drives to zero: the points of a Layout, then feature blocks.

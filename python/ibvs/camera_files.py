@@ -14,6 +14,9 @@ Two layouts, both read with OpenCV's cv2.FileStorage (the ``vision`` extra):
   calibration sample): the same keys, the matrices as ``!!opencv-matrix``, and an optional
   ``fisheye_model: 1`` instead of distortion_model.
 
+* Mei's unified omnidirectional model (cv2.omnidir, Kalibr's "omni"): ``distortion_model: omnidir``
+  (or ``mei``, ``omni``), ``xi: 1.2`` and distortion_coefficients (k1, k2, p1, p2).
+
 The frame rate (the simulator's control period is 1 / fps) is rarely in such files: read(path, fps)
 takes the fps given, else the file's own ``fps`` or ``frame_rate`` key, else DEFAULT_FPS with a
 UserWarning that says so.
@@ -39,6 +42,7 @@ DEFAULT_FPS = 60.0
 FPS_KEYS = ("fps", "frame_rate")
 
 _FISHEYE = ("equidistant", "fisheye")
+_OMNIDIR = ("omnidir", "mei", "omni", "unified")
 _PLUMB_BOB = ("plumb_bob", "radtan", "rational_polynomial", "none", "")
 
 
@@ -97,7 +101,7 @@ def _frame_rate(fs, path: str, fps):
 
 
 def read(path, fps=None) -> dict:
-    """K (3, 3), dist (n,), width, height, fisheye (bool) and fps from a calibration file.
+    """K (3, 3), dist (n,), width, height, fisheye (bool), xi (omnidir, else None) and fps from a calibration file.
 
     fps: the frame rate to use (returned as given), or None: the file's fps or frame_rate, else
     DEFAULT_FPS with a UserWarning naming the file."""
@@ -129,17 +133,21 @@ def read(path, fps=None) -> dict:
         model = model_node.string().strip().lower() if model_node.isString() else ""
         fisheye_node = fs.getNode("fisheye_model")
         flag = (fisheye_node.isInt() or fisheye_node.isReal()) and fisheye_node.real() != 0
-        if model and model not in _FISHEYE + _PLUMB_BOB:
+        if model and model not in _FISHEYE + _PLUMB_BOB + _OMNIDIR:
             raise ValueError(
                 f"path: {path}: distortion_model '{model}' is not supported "
-                "(plumb_bob, equidistant / fisheye, or rational_polynomial with k4 = k5 = k6 = 0)"
+                "(plumb_bob, equidistant / fisheye, omnidir / mei with xi, or rational_polynomial with k4 = k5 = k6 = 0)"
             )
+        xi = None
+        if model in _OMNIDIR:
+            xi = _number(fs, "xi", path)
         return {
             "K": K,
             "dist": dist.ravel(),
             "width": _number(fs, "image_width", path),
             "height": _number(fs, "image_height", path),
             "fisheye": model in _FISHEYE or bool(flag),
+            "xi": xi,
             "fps": _frame_rate(fs, path, fps),
         }
     finally:

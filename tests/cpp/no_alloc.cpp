@@ -298,6 +298,42 @@ void pixels_allocate_nothing() {
   }
 }
 
+// The wide-angle path: to_bearing / from_bearing of every model (Newton included, refused points
+// too), spherical_measurements and a Servo of spherical point and spherical-polar blocks.
+void bearings_allocate_nothing() {
+  Eigen::Matrix3d K;
+  K << 300, 0, 640, 0, 300.5, 512, 0, 0, 1;
+  Eigen::VectorXd pb(5);
+  pb << -0.4, 0.05, 0.001, -0.0005, 0.0;
+  const CameraModel cams[4] = {CameraModel::afma6(), CameraModel::from_opencv(K, pb, 1280, 1024),
+                               CameraModel::from_opencv(K, Eigen::Vector4d(-0.013, 0.02, -0.012, 0.002), 1280, 1024, true),
+                               CameraModel::from_omnidir(K, 1.2, Eigen::Vector4d(-0.1, 0.02, 1e-4, 2e-4), 1280, 1024)};
+  Task task;
+  task.add(SphericalPointFeature()).add(SphericalPolarFeature()).add(SphericalPolarFeature()).add(SphericalPointFeature());
+  Servo servo(task);
+  ServoInput in(task);
+  ServoOutput out(task);
+  for (const CameraModel& cam : cams) {
+    Points px(2, 4), back(2, 4);
+    px << 640, 700, 300, 1000, 512, 400, 900, 100;
+    Bearings b(3, 4);
+    const Eigen::VectorXd R = Eigen::VectorXd::Constant(4, 0.8);
+    const long before = news.load();
+    const int refused = cam.to_bearing(px, b);
+    cam.from_bearing(b, back);
+    spherical_measurements(cam, px, R, in.measurements);
+    in.measurements_desired = in.measurements;  // same size: no allocation
+    in.measurements_desired(0) += 0.0;
+    const Status st = servo.update(in, out);
+    px(0, 0) = std::numeric_limits<double>::quiet_NaN();  // refused by every model
+    const int bad = cam.to_bearing(px, b);
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in to_bearing / from_bearing / spherical servo", __FILE__, __LINE__,
+                      cam.describe() + ": " + std::to_string(during));
+    CHECK(bad == refused + 1 && (refused > 0 || st != Status::invalid_input));
+  }
+}
+
 // DepthEstimator::update (both motion forms, a restart, refused input) and
 // PlanarPose::estimate (a pose and a degenerate image).
 void estimators_allocate_nothing() {
@@ -572,6 +608,7 @@ void run_tests() {
   feature_episode_allocates_nothing();
   pixels_allocate_nothing();
   moments_allocate_nothing();
+  bearings_allocate_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

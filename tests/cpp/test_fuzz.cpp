@@ -1,7 +1,8 @@
 // Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
 // validate, update), PartitionedServo, damped_pinv / singular_values and se3_exp,
 // the simulator's feature sources (LineSource on a target, measure from any pose;
-// short episodes of a line task): arbitrary bytes become a layout,
+// short episodes of a line task), the wide-angle camera path (fisheye / omnidir bearings):
+// arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
 //  * every function either throws std::invalid_argument or answers with finite numbers;
@@ -25,6 +26,7 @@
 #include "ibvs/features/line.hpp"
 #include "ibvs/features/moments.hpp"
 #include "ibvs/features/segment.hpp"
+#include "ibvs/features/spherical.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -365,6 +367,52 @@ void fuzz_smooth(Bytes& b) {
   }
 }
 
+// Wide field of view: a fisheye or omnidirectional CameraModel built from fuzzed parameters (or
+// refused), to_bearing / from_bearing on fuzzed pixels and directions (accepted: finite, unit
+// bearings; validate_* throws exactly for what they refuse). The spherical feature blocks are
+// kinds of the task fuzzer below (fuzz_kinds).
+void fuzz_wide(Bytes& b) {
+  std::optional<CameraModel> cam;
+  try {
+    Eigen::Matrix3d K;
+    K << (b.byte() < 200 ? 100.0 + b.byte() : b.real()), 0, 640, 0, (b.byte() < 200 ? 100.0 + b.byte() : b.real()), 512,
+        0, 0, 1;
+    Eigen::Vector4d d;
+    for (int i = 0; i < 4; ++i) d(i) = b.byte() < 200 ? (b.byte() - 127.5) / 2000.0 : b.real();
+    if (b.byte() % 2) cam.emplace(CameraModel::from_opencv(K, d, 1280, 1024, true));
+    else cam.emplace(CameraModel::from_omnidir(K, b.byte() < 200 ? b.byte() / 80.0 : b.real(), d, 1280, 1024));
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  CHECK(cam->max_angle() > 0.0 && cam->max_angle() <= pi && !(cam->fold_radius() <= 0.0));
+  for (int k = 0; k < 4; ++k) {
+    Points px(2, 1);
+    px << (b.byte() < 200 ? b.byte() * 6.0 : b.real()), (b.byte() < 200 ? b.byte() * 5.0 : b.real());
+    Eigen::Vector3d v;
+    const bool ok = cam->to_bearing(px(0, 0), px(1, 0), v);
+    CHECK(ok ? v.allFinite() && std::abs(v.norm() - 1.0) < 1e-12 : std::isnan(v.x()));
+    bool threw = false;
+    try {
+      cam->validate_pixels(px, "pixels");
+    } catch (const std::invalid_argument&) {
+      threw = true;
+    }
+    CHECK(threw == !ok);
+    Bearings d(3, 1);
+    d << b.coordinate(), b.coordinate(), b.coordinate();
+    Eigen::Vector2d q;
+    const bool okb = cam->from_bearing(d(0), d(1), d(2), q);
+    CHECK(okb ? q.allFinite() : std::isnan(q.x()));
+    threw = false;
+    try {
+      cam->validate_bearings(d, "bearings");
+    } catch (const std::invalid_argument&) {
+      threw = true;
+    }
+    CHECK(threw == !okb);
+  }
+}
+
 // ---- Tasks of feature blocks --------------------------------------------------
 // Each kind the task fuzzer draws from: a block and a measurement of it, mostly
 // plausible (so that the accepted path is reached), sometimes hostile (every
@@ -463,8 +511,22 @@ MomentsFeature moments_kind(Bytes& b) {
   return MF(source, invariants, b.byte() & 1 ? MF::Alpha::second_order : MF::Alpha::third_order, 1u + b.byte() % 63u);
 }
 
+// A bearing (unit most of the time, else any three doubles) and a distance.
+void spherical_measurement(Bytes& b, double* m) {
+  Eigen::Vector3d d(b.coordinate(), b.coordinate(), b.byte() < 200 ? (b.byte() - 100.0) / 50.0 : b.real());
+  const double n = d.norm();
+  if (b.byte() < 220 && std::isfinite(n) && n > 0.0) d /= n;
+  for (int i = 0; i < 3; ++i) m[i] = d(i);
+  m[3] = b.depth();
+}
+
 const FuzzKind fuzz_kinds[] = {
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<SphericalPointFeature>(); }, spherical_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> {
+       return std::make_unique<SphericalPolarFeature>(b.byte() < 200 ? 1e-3 : 0.2);
+     },
+     spherical_measurement},
     {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<SegmentFeature>(b.byte() < 160); },
      segment_measurement},
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<EllipseFeature>(); }, ellipse_measurement},
@@ -592,13 +654,14 @@ void fuzz_sources(Bytes& b) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 7) {
+  switch (b.byte() % 8) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
     case 2: fuzz_task(b); break;
     case 3: fuzz_mounting_secondary(b); break;
     case 4: fuzz_smooth(b); break;
     case 5: fuzz_sources(b); break;
+    case 6: fuzz_wide(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

@@ -148,11 +148,14 @@ def test_cpp_bench_camera_section(cpp_bench: str) -> None:
     out = subprocess.run([cpp_bench, "--iterations", "300", "--sections", "camera", "--json"], check=True,
                          capture_output=True, text=True, timeout=300).stdout
     cases = json.loads(out)["cases"]
-    assert {c["name"] for c in cases} == {"CameraModel::normalize", "CameraModel::project",
+    assert {c["name"] for c in cases} == {"CameraModel::normalize", "CameraModel::project", "CameraModel::to_bearing",
+                                          "spherical servo step (fisheye pixels)",
                                           "Servo::update_pixels damped", "DepthEstimator::update (4x4 motion)",
                                           "PlanarPose::estimate"}
     assert {c["layout"] for c in cases if c["name"] == "CameraModel::normalize"} == {"visp", "plumb_bob",
                                                                                       "equidistant"}
+    assert {c["layout"] for c in cases if c["name"] == "CameraModel::to_bearing"} == {
+        "visp", "plumb_bob", "equidistant", "fisheye 200deg", "omnidir"}
     for c in cases:
         assert c["section"] == "camera" and c["allocs_per_call"] == 0, c
         assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]

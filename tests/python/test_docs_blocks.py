@@ -152,6 +152,7 @@ PRINTS = {
     ("docs/beyond.md", "docs/scripts/gain_saturation.py"): ["| z_rotation | polar | gain 1 | converged | 13.2 |"],
     ("docs/ros.md", 'record="gantry.mcap"'): ["largest difference from the recorded twists: 0"],
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
+    ("docs/wide.md", "measurements_desired=goal"): ["target centre 100.6 deg off the axis", "converged at frame"],
     ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
     ("docs/features.md", "the same segment, from its other end"): ["error against its reverse: 0.0"],
     ("docs/features.md", "def turn(feature, degrees"): [

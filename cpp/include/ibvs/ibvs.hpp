@@ -12,6 +12,7 @@
 #include "ibvs/features/line.hpp"
 #include "ibvs/features/moments.hpp"
 #include "ibvs/features/segment.hpp"
+#include "ibvs/features/spherical.hpp"
 #include "ibvs/gain.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/limits.hpp"

@@ -3,7 +3,8 @@
 Distortion models: "plumb_bob" (d = k1, k2, p1, p2, k3), "rational_polynomial" (k1, k2, p1, p2, k3, k4,
 k5, k6: read when k4 = k5 = k6 = 0, as plumb_bob; refused otherwise, CameraModel has no rational model),
 "equidistant" (k1..k4, OpenCV's fisheye), "" or "none" (d empty or zeros), and "visp" (kud, kdu: ibvs's
-name for ViSP's model, e.g. CameraModel.afma6(); ROS tools do not know it). A camera without
+name for ViSP's model, e.g. CameraModel.afma6(); ROS tools do not know it), and "omnidir" (xi, k1, k2, p1,
+p2: Mei's unified model, CameraModel.from_omnidir; also not a ROS standard). A camera without
 distortion is written as plumb_bob with five zeros, the ROS convention.
 
 Binning and region of interest are honoured as image_geometry does: the image published is the ROI
@@ -24,7 +25,8 @@ from . import types as t
 __all__ = ["DISTORTION_MODELS", "camera_model", "camera_info"]
 
 #: The distortion models camera_model() reads (and camera_info() writes), with their number of coefficients.
-DISTORTION_MODELS = {"plumb_bob": 5, "rational_polynomial": 8, "equidistant": 4, "visp": 2, "": None, "none": None}
+DISTORTION_MODELS = {"plumb_bob": 5, "rational_polynomial": 8, "equidistant": 4, "visp": 2, "omnidir": 5, "": None,
+                     "none": None}
 
 
 def camera_model(msg, fps: float = 60.0) -> CameraModel:
@@ -77,6 +79,8 @@ def camera_model(msg, fps: float = 60.0) -> CameraModel:
             return CameraModel.from_visp(fx, fy, cx, cy, float(d[0]), float(d[1]), float(w), float(h), fps)
         if model == "equidistant":
             return CameraModel.from_opencv(Kb, d, float(w), float(h), fisheye=True, fps=fps)
+        if model == "omnidir":
+            return CameraModel.from_omnidir(Kb, float(d[0]), d[1:5], float(w), float(h), fps)
         return CameraModel.from_opencv(Kb, d[:5] if d.size else None, float(w), float(h), fps=fps)
     except ValueError as e:
         raise ValueError(f"{what}: {e}") from None
@@ -97,7 +101,7 @@ def camera_info(model: CameraModel, types=None, frame_id: str = "camera", stamp_
     if dist == "none":
         name, d = "plumb_bob", np.zeros(5)
     else:
-        name, d = {"plumb_bob": "plumb_bob", "equidistant": "equidistant", "visp": "visp"}[dist], \
+        name, d = {"plumb_bob": "plumb_bob", "equidistant": "equidistant", "visp": "visp", "omnidir": "omnidir"}[dist], \
             np.array(model.coefficients, dtype=np.float64)
     K = np.array([model.px, 0.0, model.u0, 0.0, model.py, model.v0, 0.0, 0.0, 1.0])
     P = np.array([model.px, 0.0, model.u0, 0.0, 0.0, model.py, model.v0, 0.0, 0.0, 0.0, 1.0, 0.0])
