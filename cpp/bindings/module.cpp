@@ -12,6 +12,7 @@ void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
 void bind_task(py::module_& m);         // bind_task.cpp
+void bind_pose(py::module_& m);         // bind_pose.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
@@ -23,4 +24,5 @@ PYBIND11_MODULE(_core, m) {
   bind_sim(m);
   bind_partitioned(m);
   bind_robot(m);
+  bind_pose(m);
 }

@@ -46,6 +46,7 @@ from ._core import (
     singular_values,
     wrap_angle,
 )
+from ._core import FunctionFeature, PbvsFeature, Point25DFeature, theta_u, theta_u_interaction  # 3-D, 2.5-D, user blocks
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
 
 __all__ = [
@@ -80,6 +81,7 @@ __all__ = [
     "singular_values",
     "wrap_angle",
 ]
+__all__ += ["FunctionFeature", "PbvsFeature", "Point25DFeature", "theta_u", "theta_u_interaction"]
 
 
 def _reduce_layout(layout: Layout):
