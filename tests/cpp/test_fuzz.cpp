@@ -1,4 +1,5 @@
 // Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
+// PBVS / 2.5-D / function feature blocks in a Task,
 // damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
@@ -15,7 +16,10 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/features/function.hpp"
+#include "ibvs/features/pose.hpp"
 
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -208,13 +212,93 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
+// 3-D, 2.5-D and user-defined feature blocks (features/pose.hpp, features/function.hpp): a Task of
+// some of them (and maybe a point), measurements from random poses through measure() (which throws
+// or answers) or straight from the bytes; validate() throws iff update() refuses; theta_u of any
+// rotation is finite with angle <= pi, and theta_u_interaction is finite up to 2 pi.
+void fuzz_pose(Bytes& b) {
+  const auto fn = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
+    s[0] = 1.0 / m[0];  // infinite at 0, huge near it: check() refuses
+    L.setZero();
+    L(0, 2) = -s[0] * s[0];
+    return m[0] != 1.0;  // refuses 1 itself
+  };
+  Task task(b.byte() < 128 ? Layout::none() : Layout::cartesian(1));
+  const int kinds = b.small(1, 4);
+  for (int k = 0; k < kinds; ++k) {
+    switch (b.small(0, 3)) {
+      case 0: task.add(PbvsFeature(PbvsTarget::desired_camera)); break;
+      case 1: task.add(PbvsFeature(PbvsTarget::object)); break;
+      case 2: task.add(Point25DFeature()); break;
+      default: task.add(FunctionFeature(1, 1, fn)); break;
+    }
+  }
+  ServoOptions o;
+  o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
+  o.jacobian = static_cast<InteractionMatrix>(b.small(0, 2));
+  Servo servo(task, o);
+  ServoInput in(task);
+  ServoOutput out(task);
+  for (Eigen::Index i = 0; i < in.uv.size(); ++i) in.uv.data()[i] = b.coordinate();
+  for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
+  for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
+  in.depth_desired = in.depth;
+  const auto random_pose = [&b]() {
+    Twist xi;
+    for (int i = 0; i < 6; ++i) xi(i) = b.byte() < 200 ? (b.byte() - 127.5) / 30.0 : b.real();
+    Pose T = xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(xi) : Pose::Identity();
+    if (b.byte() > 230) T(b.small(0, 2), b.small(0, 3)) = b.real();  // sometimes not a rigid transform
+    return T;
+  };
+  for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
+    const Pose cMo = random_pose(), cdMo = random_pose();
+    for (int k = 0; k < task.n_features(); ++k) {
+      const Feature& f = task.feature(k);
+      double* dst = m->data() + task.offset(k);
+      try {
+        std::array<double, 6> v{};
+        if (b.byte() < 128 || f.size() != 6) throw std::invalid_argument("from the bytes");
+        if (f.describe() == "2.5-D point")
+          v = Point25DFeature::measure(cMo, cdMo, Eigen::Vector3d(b.coordinate(), b.coordinate(), b.coordinate()));
+        else
+          v = PbvsFeature::measure(cMo, cdMo, f.describe() == "pbvs(object)" ? PbvsTarget::object
+                                                                              : PbvsTarget::desired_camera);
+        std::copy(v.begin(), v.end(), dst);
+      } catch (const std::invalid_argument&) {
+        for (int i = 0; i < f.size(); ++i) dst[i] = b.byte() < 160 ? b.coordinate() : b.real();
+      }
+    }
+  }
+  bool valid = true;
+  try {
+    servo.validate(in);
+  } catch (const std::invalid_argument&) {
+    valid = false;
+  }
+  const Status st = servo.update(in, out);
+  ibvs_test::report(valid == (st != Status::invalid_input), "pose blocks: validate() throws iff update() refuses",
+                    __FILE__, __LINE__, task.describe());
+  check_output(out, st, true, "Servo::update (pose blocks)");
+  const Pose T = random_pose();
+  if (T.allFinite()) {
+    const Eigen::Vector3d tu = theta_u(T.topLeftCorner<3, 3>());
+    CHECK(tu.allFinite());
+    if ((T.topLeftCorner<3, 3>().transpose() * T.topLeftCorner<3, 3>() - Eigen::Matrix3d::Identity()).norm() < 1e-9)
+      CHECK(tu.norm() <= pi + 1e-12);
+  }
+  Eigen::Vector3d tu(b.coordinate(), b.coordinate(), b.coordinate());
+  tu *= b.byte() / 10.0;
+  if (tu.norm() <= 2 * pi) CHECK(theta_u_interaction(tu).allFinite());
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 3) {
+  switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
+    case 3: fuzz_pose(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;
