@@ -141,7 +141,8 @@ class PyFunctionFeature final : public Feature {
       // The exception's type and text (what() would add the traceback).
       std::string text;
       try {
-        text = py::str(err.type().attr("__name__")).cast<std::string>() + ": " + py::str(err.value()).cast<std::string>();
+        text = py::str(err.type().attr("__name__")).cast<std::string>() + ": " +
+               py::str(err.value()).cast<std::string>();
       } catch (...) {
         text = err.what();
       }
@@ -205,8 +206,7 @@ with its largest component positive).)");
       R"(L_tu (3, 3): d(theta u)/dt = L_tu w for theta u of c*Rc and the camera's angular velocity w:
 I + (theta/2)[u]x + (1 - sinc(theta)/sinc^2(theta/2))[u]x^2 (Malis et al. 1999; ViSP cdRc).)");
 
-  py::class_<PbvsFeature, Feature, std::shared_ptr<PbvsFeature>>(m, "PbvsFeature",
-                                                                R"(Position-based visual servoing: (translation, theta u), 6 rows.
+  py::class_<PbvsFeature, Feature, std::shared_ptr<PbvsFeature>>(m, "PbvsFeature", R"(Position-based visual servoing: (translation, theta u), 6 rows.
 
 target="desired_camera": s = (c*t_c, theta u), the current camera's centre in the desired camera's
 frame (goal 0), L = [c*Rc 0; 0 L_tu]: the camera centre moves on a straight line.
@@ -224,14 +224,13 @@ pose_desired) builds it from camera <- object poses (e.g. ibvs.PlanarPose's). th
       .def_static(
           "measure",
           [](py::handle pose, py::handle pose_desired, py::handle target) {
-            return array6(
-                PbvsFeature::measure(pose_arg(pose, "pose"), pose_arg(pose_desired, "pose_desired"), target_arg(target)));
+            return array6(PbvsFeature::measure(pose_arg(pose, "pose"), pose_arg(pose_desired, "pose_desired"),
+                                               target_arg(target)));
           },
           py::arg("pose"), py::arg("pose_desired"), py::arg("target") = "desired_camera",
           "The measurement (6,) from the current and desired camera <- object poses (4x4).");
 
-  py::class_<Point25DFeature, Feature, std::shared_ptr<Point25DFeature>>(m, "Point25DFeature",
-                                                                        R"(2.5-D visual servoing (Malis, Chaumette & Boudet, IEEE T-RA 1999): 6 rows.
+  py::class_<Point25DFeature, Feature, std::shared_ptr<Point25DFeature>>(m, "Point25DFeature", R"(2.5-D visual servoing (Malis, Chaumette & Boudet, IEEE T-RA 1999): 6 rows.
 
 s = (x, y, log Z, theta u) of a reference point: its normalised image point, its depth and theta
 u of c*Rc; the error is (x - x*, y - y*, log(Z/Z*), theta u). L: the point's rows (paper eq. 3),
@@ -248,8 +247,7 @@ point) builds it from camera <- object poses and the point in the object frame.)
           py::arg("pose"), py::arg("pose_desired"), py::arg("point") = std::array<double, 3>{0.0, 0.0, 0.0},
           "The measurement (6,) of `point` (object frame) from the current and desired camera <- object poses.");
 
-  py::class_<PyFunctionFeature, Feature, std::shared_ptr<PyFunctionFeature>>(m, "FunctionFeature",
-                                                                            R"(A feature block of your own: fn(measurement) -> (s, L).
+  py::class_<PyFunctionFeature, Feature, std::shared_ptr<PyFunctionFeature>>(m, "FunctionFeature", R"(A feature block of your own: fn(measurement) -> (s, L).
 
 rows: the block's rows (1 to 64); size: values in one measurement; fn receives the measurement
 (a (size,) array) and returns s (rows,) and L (rows, 6), the interaction matrix (ds/dt = L v for

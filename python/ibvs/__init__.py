@@ -46,7 +46,8 @@ from ._core import (
     singular_values,
     wrap_angle,
 )
-from ._core import FunctionFeature, PbvsFeature, Point25DFeature, theta_u, theta_u_interaction  # 3-D, 2.5-D, user blocks
+# 3-D (PBVS), 2.5-D and user-defined feature blocks
+from ._core import FunctionFeature, PbvsFeature, Point25DFeature, theta_u, theta_u_interaction
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
 
 __all__ = [

@@ -821,8 +821,11 @@ class Point25DFeature(Feature):
 
     def __init__(self) -> None: ...
     @staticmethod
-    def measure(pose: _ArrayLike, pose_desired: _ArrayLike, point: _ArrayLike = (0.0, 0.0, 0.0)) -> _FloatArray:
-        """The measurement (6,) of `point` (object frame) from the current and desired camera <- object poses."""
+    def measure(
+        pose: _ArrayLike, pose_desired: _ArrayLike, point: _ArrayLike = (0.0, 0.0, 0.0)
+    ) -> _FloatArray:
+        """The measurement (6,) of `point` (object frame) from the current and desired camera <- object
+        poses."""
 
 class FunctionFeature(Feature):
     """A feature block of your own: fn(measurement) -> (s, L).

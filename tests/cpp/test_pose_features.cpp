@@ -162,7 +162,8 @@ void pose_jacobians() {
     worst[1] = std::max(worst[1], fd_worst(to_object, cMo, [&](const Pose& T) {
       return PbvsFeature::measure(T, cdMo, PbvsTarget::object);
     }));
-    worst[2] = std::max(worst[2], fd_worst(p25, cMo, [&](const Pose& T) { return Point25DFeature::measure(T, cdMo, P); }));
+    worst[2] = std::max(worst[2],
+                        fd_worst(p25, cMo, [&](const Pose& T) { return Point25DFeature::measure(T, cdMo, P); }));
     // ViSP's formulas: vpFeatureTranslation cdMc ([c*Rc 0]) and cMo ([-I [t]x]), vpFeatureThetaU cdRc,
     // vpFeaturePoint and vpFeatureDepth ([0 0 -1/Z -y x 0]).
     MatrixX6 L(6, 6);
@@ -270,7 +271,9 @@ void straight_lines() {
     return cMo.topRightCorner<2, 1>() / cMo(2, 3);
   };
   const auto point_image = origin_image;
-  const auto pbvs_c = [](const Pose& a, const Pose& b) { return PbvsFeature::measure(a, b, PbvsTarget::desired_camera); };
+  const auto pbvs_c = [](const Pose& a, const Pose& b) {
+    return PbvsFeature::measure(a, b, PbvsTarget::desired_camera);
+  };
   const auto pbvs_o = [](const Pose& a, const Pose& b) { return PbvsFeature::measure(a, b, PbvsTarget::object); };
   const auto p25 = [&](const Pose& a, const Pose& b) { return Point25DFeature::measure(a, b, origin); };
   double worst[3] = {0, 0, 0};
@@ -293,7 +296,8 @@ void straight_lines() {
   // First order in dt: the camera centre's deviation from 170 degrees about z halves with dt.
   const Path coarse = close_loop(PbvsFeature(PbvsTarget::desired_camera), starts[0], oMcd, 2e-3, pbvs_c, centre);
   const Path fine = close_loop(PbvsFeature(PbvsTarget::desired_camera), starts[0], oMcd, 1e-3, pbvs_c, centre);
-  std::printf("camera centre deviation: %.3g at dt 2e-3, %.3g at dt 1e-3\n", coarse.worst_off_line, fine.worst_off_line);
+  std::printf("camera centre deviation: %.3g at dt 2e-3, %.3g at dt 1e-3\n", coarse.worst_off_line,
+              fine.worst_off_line);
   CHECK(fine.worst_off_line < 0.6 * coarse.worst_off_line);
 }
 
@@ -301,14 +305,17 @@ void straight_lines() {
 // of them stacked in a Task give the twist of the Layout of four Cartesian points; stacked with a
 // PBVS block they give the weighted least-squares solution of the stacked rows.
 void function_feature() {
+  // --8<-- [start:function_feature]
+  // A Cartesian image point as a user's block: measurement (x, y, Z), value (x, y), L of eq. (3).
   const auto point = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
-    if (!(m[2] > 0.0)) return false;
+    if (!(m[2] > 0.0)) return false;  // refused: behind the camera
     s[0] = m[0];
     s[1] = m[1];
     L = cartesian_jacobian(m[0], m[1], m[2]);
     return true;
   };
-  const FunctionFeature f(2, 3, point, "point");
+  const FunctionFeature f(2, 3, point, "point");  // 2 rows, 3 doubles per measurement
+  // --8<-- [end:function_feature]
   CHECK(f.describe() == "point(rows=2)");
   Task task;
   for (int i = 0; i < 4; ++i) task.add(f);

@@ -39,7 +39,8 @@ def L_tu(tu):
 
 def random_pose(rng, max_angle):
     axis = rng.normal(size=3)
-    return pose(rng.uniform(0, max_angle) * axis / np.linalg.norm(axis), [*rng.uniform(-0.5, 0.5, 2), rng.uniform(0.8, 3)])
+    t = [*rng.uniform(-0.5, 0.5, 2), rng.uniform(0.8, 3)]
+    return pose(rng.uniform(0, max_angle) * axis / np.linalg.norm(axis), t)
 
 
 def moved(cMo, xi):
@@ -66,7 +67,8 @@ def test_theta_u_interaction_is_its_derivative(rng):
         axis = rng.normal(size=3)
         tu = th * axis / np.linalg.norm(axis)
         R, h = rot(tu), 1e-6
-        Ln = np.column_stack([(ibvs.theta_u(R @ rot(h * e)) - ibvs.theta_u(R @ rot(-h * e))) / (2 * h) for e in np.eye(3)])
+        Ln = np.column_stack([(ibvs.theta_u(R @ rot(h * e)) - ibvs.theta_u(R @ rot(-h * e))) / (2 * h)
+                              for e in np.eye(3)])
         L = ibvs.theta_u_interaction(tu)
         np.testing.assert_allclose(L, Ln, atol=1e-7)
         np.testing.assert_allclose(L, L_tu(tu), atol=1e-9)
@@ -76,14 +78,15 @@ def test_theta_u_interaction_is_its_derivative(rng):
 
 
 KINDS = {
-    "desired_camera": (ibvs.PbvsFeature("desired_camera"), lambda T, Td: ibvs.PbvsFeature.measure(T, Td, "desired_camera")),
+    "desired_camera": (ibvs.PbvsFeature("desired_camera"),
+                       lambda T, Td: ibvs.PbvsFeature.measure(T, Td, "desired_camera")),
     "object": (ibvs.PbvsFeature("object"), lambda T, Td: ibvs.PbvsFeature.measure(T, Td, "object")),
     "2.5-D": (ibvs.Point25DFeature(), lambda T, Td: ibvs.Point25DFeature.measure(T, Td, [0.1, -0.05, 0.02])),
 }
 
 
 def published(kind, m, cMo, cdMo):
-    """The formulas: Chaumette & Hutchinson 2006 Sec. IV (PBVS), Malis et al. 1999 (2.5-D), as ViSP writes them."""
+    """The formulas: Chaumette & Hutchinson 2006 Sec. IV (PBVS), Malis et al. 1999 (2.5-D), as in ViSP."""
     L = np.zeros((6, 6))
     L[3:, 3:] = L_tu(m[3:])
     if kind == "desired_camera":
@@ -108,14 +111,14 @@ def test_interaction_is_the_derivative_of_the_measurement(rng, kind):
         if np.linalg.norm(m[3:]) > np.pi - 1e-3:
             continue
         h = 1e-6
-        Ln = np.column_stack([(f.value(measure(moved(cMo, h * e), cdMo)) - f.value(measure(moved(cMo, -h * e), cdMo)))
-                              / (2 * h) for e in np.eye(6)])
+        Ln = np.column_stack([(f.value(measure(moved(cMo, h * e), cdMo))
+                               - f.value(measure(moved(cMo, -h * e), cdMo))) / (2 * h) for e in np.eye(6)])
         L = f.interaction(m)
         np.testing.assert_allclose(L, Ln, atol=1e-6 * max(1, np.abs(L).max()))
         np.testing.assert_allclose(L, published(kind, m, cMo, cdMo), atol=1e-10)
         checked += 1
     assert checked > 30
-    # The goal's measurement: zeros (desired camera), (c*t_o, 0) (object), (x*, y*, Z*, 0) (2.5-D); error 0 there.
+    # The goal's measurement: zeros (desired camera), (c*t_o, 0) (object), (x*, y*, Z*, 0) (2.5-D); error 0.
     cdMo = random_pose(rng, 0.5)
     md = measure(cdMo, cdMo)
     np.testing.assert_allclose(md[3:], 0, atol=1e-15)
@@ -128,7 +131,8 @@ def off_line(p, a, b):
     return np.linalg.norm(r - (r @ d) * d) / np.linalg.norm(b - a)
 
 
-START_ANGLES = [np.deg2rad(170) * np.array([0, 0, 1.0]), np.deg2rad(150) * np.array([0.2, -0.3, 0.93]) / np.linalg.norm([0.2, -0.3, 0.93])]
+START_ANGLES = [np.deg2rad(170) * np.array([0, 0, 1.0]),
+                np.deg2rad(150) * np.array([0.2, -0.3, 0.93]) / np.linalg.norm([0.2, -0.3, 0.93])]
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -144,7 +148,10 @@ def test_closed_loop_straight_line(kind, start):
     oMc = pose(START_ANGLES[start], [0.3, -0.2, -1.6])
     cdMo = np.linalg.inv(oMcd)
     md = measure(cdMo, cdMo)
-    track = (lambda cMo, oMc: oMc[:3, 3]) if kind == "desired_camera" else (lambda cMo, oMc: cMo[:2, 3] / cMo[2, 3])
+    if kind == "desired_camera":
+        track = lambda cMo, oMc: oMc[:3, 3]  # noqa: E731  (the camera centre)
+    else:
+        track = lambda cMo, oMc: cMo[:2, 3] / cMo[2, 3]  # noqa: E731  (the object origin's image)
     a, b = track(np.linalg.inv(oMc), oMc), track(cdMo, oMcd)
     worst, dt = 0.0, 5e-3
     none, none_z = np.zeros((0, 2)), np.zeros(0)
@@ -183,7 +190,8 @@ def test_function_feature_stacks_with_the_others():
     # Mixed with the image points of a Layout and a PBVS block, weighted.
     mixed = ibvs.Task(ibvs.Layout.cartesian(1)).add(f, weight=2.0).add(ibvs.PbvsFeature("object"))
     m_pbvs, md_pbvs = [0.05, -0.02, 1.4, 0.1, 0.2, -0.3], [0, 0, 1.0, 0, 0, 0]
-    r = ibvs.Servo(mixed, gain=1.0).update([[0.2, 0.1]], 1.2, [[0.0, 0.0]], measurements=[[0.1, -0.2, 1.5], m_pbvs],
+    r = ibvs.Servo(mixed, gain=1.0).update([[0.2, 0.1]], 1.2, [[0.0, 0.0]],
+                                           measurements=[[0.1, -0.2, 1.5], m_pbvs],
                                            measurements_desired=[[0, 0, 1.0], md_pbvs])
     J = np.vstack([ibvs.jacobian([[0.2, 0.1]], 1.2, ibvs.Layout.cartesian(1)), 2 * point([0.1, -0.2, 1.5])[1],
                    ibvs.PbvsFeature("object").interaction(m_pbvs)])

@@ -19,8 +19,8 @@ _any = st.one_of(st.floats(-10, 10), st.floats(allow_nan=True, allow_infinity=Tr
 
 
 @settings(max_examples=150)
-@given(st.sampled_from(list(KINDS)), hnp.arrays(np.float64, 6, elements=_any), hnp.arrays(np.float64, 6, elements=_any),
-       st.sampled_from(["current", "desired", "mean"]))
+@given(st.sampled_from(list(KINDS)), hnp.arrays(np.float64, 6, elements=_any),
+       hnp.arrays(np.float64, 6, elements=_any), st.sampled_from(["current", "desired", "mean"]))
 def test_pose_measurements_finite_or_refused(kind, m, md, jacobian):
     f = KINDS[kind]
     servo = ibvs.Servo(ibvs.Task().add(f), gain=1.0, damping=0.01, jacobian=jacobian)
