@@ -246,14 +246,14 @@ Path close_loop(const Feature& f, const Pose& oMc0, const Pose& oMcd, double dt,
   return path;
 }
 
-// The known straight lines, from large rotations (170 degrees about the optical axis among them). The
+// The known straight lines, from large rotations (170 and 180 degrees about the optical axis among them). The
 // law is continuous-time: one step of the constant twist is a screw, so the path leaves the line by
 // O(dt); with dt = 1e-3 s and gain 1 it stays within 0.1 % of its length, and the deviation halves with dt.
 void straight_lines() {
   Pose oMcd = Pose::Identity();
   oMcd.topRightCorner<3, 1>() << 0.0, 0.0, -1.0;  // the goal: 1 m in front of the object, facing it
   std::vector<Pose> starts;
-  for (double deg : {170.0, 90.0, 45.0}) {
+  for (double deg : {170.0, 180.0, 90.0, 45.0}) {  // 180: theta u at pi, its axis' sign chosen by theta_u()
     Pose T = oMcd;
     T.topLeftCorner<3, 3>() = rotation_of(deg * pi / 180 * Eigen::Vector3d::UnitZ());
     T.topRightCorner<3, 1>() << 0.3, -0.2, -1.6;

@@ -187,6 +187,9 @@ def test_function_feature_stacks_with_the_others():
                                             measurements=[[*uv[i], z[i]] for i in range(4)],
                                             measurements_desired=[[*uvd[i], 1.0] for i in range(4)])
     np.testing.assert_allclose(got.velocity, ref.velocity, rtol=1e-12, atol=1e-15)
+    copy = task.features[0]  # a copy of the block, the same callable
+    assert isinstance(copy, ibvs.FunctionFeature) and copy.fn is point
+    np.testing.assert_allclose(copy.error([0.3, 0.1, 2.0], [0.1, 0.1, 1.0]), [0.2, 0.0])
     # Mixed with the image points of a Layout and a PBVS block, weighted.
     mixed = ibvs.Task(ibvs.Layout.cartesian(1)).add(f, weight=2.0).add(ibvs.PbvsFeature("object"))
     m_pbvs, md_pbvs = [0.05, -0.02, 1.4, 0.1, 0.2, -0.3], [0, 0, 1.0, 0, 0, 0]
@@ -247,6 +250,11 @@ def test_pose_refusals():
         ibvs.Point25DFeature().value([0.1, 0.1, -1.0, 0, 0, 0])
     with pytest.raises(ValueError, match="at most 2 pi"):
         ibvs.PbvsFeature().value([0, 0, 1, 7.0, 0, 0])
+    # A task of feature blocks only needs no depth_desired for the goal's interaction matrix.
+    servo = ibvs.Servo(ibvs.Task().add(ibvs.PbvsFeature()), gain=1.0, jacobian="mean")
+    r = servo.update(np.zeros((0, 2)), [], np.zeros((0, 2)), measurements=[[0, 0, 1, 0.1, 0, 0]],
+                     measurements_desired=[np.zeros(6)])
+    assert np.isfinite(r.velocity).all()
     # theta in (pi, 2 pi]: the principal form, the same rotation.
     s = ibvs.PbvsFeature().value([0, 0, 1, 4.0, 0, 0])
     np.testing.assert_allclose(s[3:], [4.0 - 2 * np.pi, 0, 0])
