@@ -261,5 +261,6 @@ update() alike). Stack it with any other block in a Task.)")
            }),
            py::arg("rows"), py::arg("size"), py::arg("fn"), py::arg("name") = "function")
       .def_property_readonly("fn", &PyFunctionFeature::function, "The callable.")
-      .def_property_readonly("name", &PyFunctionFeature::name);
+      .def_property_readonly("name", &PyFunctionFeature::name,
+                             "The block's name in describe() and repr (default \"function\").");
 }
