@@ -36,9 +36,9 @@ Task::~Task() = default;
 
 namespace {
 void check_weight(double w, const std::string& name) {
-  if (!(std::isfinite(w) && w > 0.0 && w <= max_gain))
-    throw std::invalid_argument("ibvs: " + name + " must be finite and in (0, " + detail::number(max_gain) +
-                                "], got " + detail::number(w));
+  if (!(std::isfinite(w) && w >= 1.0 / max_task_weight && w <= max_task_weight))
+    throw std::invalid_argument("ibvs: " + name + " must be finite and in [" + detail::number(1.0 / max_task_weight) +
+                                ", " + detail::number(max_task_weight) + "], got " + detail::number(w));
 }
 }  // namespace
 

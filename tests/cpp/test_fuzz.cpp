@@ -1,5 +1,5 @@
-// Fuzz target over Layout, Servo (options, validate, update), PartitionedServo,
-// PBVS / 2.5-D / function feature blocks in a Task,
+// Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
+// validate, update), PartitionedServo,
 // damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
@@ -16,7 +16,9 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/task.hpp"
 #include "ibvs/features/function.hpp"
+#include "ibvs/features/line.hpp"
 #include "ibvs/features/pose.hpp"
 
 #include <array>
@@ -212,83 +214,133 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
-// 3-D, 2.5-D and user-defined feature blocks (features/pose.hpp, features/function.hpp): a Task of
-// some of them (and maybe a point), measurements from random poses through measure() (which throws
-// or answers) or straight from the bytes; validate() throws iff update() refuses; theta_u of any
-// rotation is finite with angle <= pi, and theta_u_interaction is finite up to 2 pi.
-void fuzz_pose(Bytes& b) {
-  const auto fn = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
-    s[0] = 1.0 / m[0];  // infinite at 0, huge near it: check() refuses
-    L.setZero();
-    L(0, 2) = -s[0] * s[0];
-    return m[0] != 1.0;  // refuses 1 itself
-  };
-  Task task(b.byte() < 128 ? Layout::none() : Layout::cartesian(1));
-  const int kinds = b.small(1, 4);
-  for (int k = 0; k < kinds; ++k) {
-    switch (b.small(0, 3)) {
-      case 0: task.add(PbvsFeature(PbvsTarget::desired_camera)); break;
-      case 1: task.add(PbvsFeature(PbvsTarget::object)); break;
-      case 2: task.add(Point25DFeature()); break;
-      default: task.add(FunctionFeature(1, 1, fn)); break;
+
+// ---- Tasks of feature blocks --------------------------------------------------
+// Each kind the task fuzzer draws from: a block and a measurement of it, mostly
+// plausible (so that the accepted path is reached), sometimes hostile (every
+// entry can be any double). A new feature kind adds one entry to fuzz_kinds.
+struct FuzzKind {
+  std::unique_ptr<Feature> (*make)(Bytes&);
+  void (*measure)(Bytes&, double* m);  // Feature::size() doubles
+};
+
+void line_measurement(Bytes& b, double* m) {
+  m[0] = b.coordinate();
+  m[1] = b.byte() < 200 ? (b.byte() - 127.5) / 20.0 : b.real();
+  for (int i = 2; i < 4; ++i) m[i] = b.byte() < 200 ? b.coordinate() : b.real();
+  m[4] = 1.0 / b.depth();
+}
+
+// A camera <- object pose: mostly a rigid motion (any angle, exactly pi about z at times), sometimes
+// not one (measure() must then throw).
+Pose fuzz_rigid_pose(Bytes& b) {
+  Twist xi;
+  for (int i = 0; i < 6; ++i) xi(i) = b.byte() < 200 ? (b.byte() - 127.5) / 30.0 : b.real();
+  Pose T = xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(xi) : Pose::Identity();
+  if (b.byte() > 240) T.topLeftCorner<3, 3>() = rotation_of(pi * Eigen::Vector3d::UnitZ());  // theta u at pi
+  if (b.byte() > 240) T(b.small(0, 2), b.small(0, 3)) = b.real();
+  return T;
+}
+
+// PBVS (Target 0: desired camera, 1: object) and 2.5-D (2) measurements: measure() of two random poses, or
+// hostile entries; theta_u's invariants on the way (angle <= pi, L_tu finite up to 2 pi).
+template <int Target>
+void pose_measurement(Bytes& b, double* m) {
+  const Pose cMo = fuzz_rigid_pose(b), cdMo = fuzz_rigid_pose(b);
+  try {
+    if (b.byte() < 60) throw std::invalid_argument("hostile");
+    const Eigen::Vector3d P(b.coordinate(), b.coordinate(), b.coordinate());
+    const std::array<double, 6> v =
+        Target == 2 ? Point25DFeature::measure(cMo, cdMo, P)
+                    : PbvsFeature::measure(cMo, cdMo, Target == 0 ? PbvsTarget::desired_camera : PbvsTarget::object);
+    std::copy(v.begin(), v.end(), m);
+    CHECK(Eigen::Map<const Eigen::Vector3d>(m + 3).norm() <= pi + 1e-12);
+  } catch (const std::invalid_argument&) {
+    for (int i = 0; i < 6; ++i) m[i] = b.byte() < 128 ? b.coordinate() : b.real();
+  }
+  const Eigen::Map<const Eigen::Vector3d> tu(m + 3);
+  if (tu.allFinite() && tu.norm() <= 2 * pi) CHECK(theta_u_interaction(tu).allFinite());
+}
+
+// A user's block: s = 1 / m (infinite at 0, huge near it: refused by check()), and 1 itself refused.
+constexpr auto fuzz_inverse = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
+  s[0] = 1.0 / m[0];
+  L.setZero();
+  L(0, 2) = -s[0] * s[0];
+  return m[0] != 1.0;
+};
+
+const FuzzKind fuzz_kinds[] = {
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<PbvsFeature>(PbvsTarget::desired_camera); },
+     pose_measurement<0>},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<PbvsFeature>(PbvsTarget::object); },
+     pose_measurement<1>},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<Point25DFeature>(); }, pose_measurement<2>},
+    {[](Bytes&) -> std::unique_ptr<Feature> {
+       return std::make_unique<FunctionFeature<decltype(fuzz_inverse)>>(1, 1, fuzz_inverse);
+     },
+     [](Bytes& b, double* m) { m[0] = b.byte() < 200 ? b.coordinate() : b.real(); }},
+};
+
+void fuzz_task(Bytes& b) {
+  std::optional<Task> task;
+  std::vector<const FuzzKind*> kind_of;  // the kind of each block, to draw its measurements
+  try {
+    const int n = b.small(0, 4);
+    task.emplace(n == 0 ? Task() : Task(b.byte() < 128 ? Layout::cartesian(n) : Layout::polar(n)));
+    const int blocks = b.small(0, 3);
+    constexpr int kinds = static_cast<int>(sizeof fuzz_kinds / sizeof fuzz_kinds[0]);
+    for (int k = 0; k < blocks; ++k) {
+      const FuzzKind& kind = fuzz_kinds[b.small(0, kinds - 1)];
+      task->add(*kind.make(b), b.byte() < 200 ? 1.0 + b.byte() / 64.0 : b.real());
+      kind_of.push_back(&kind);
     }
+    if (n > 0 && b.byte() > 200) {
+      std::vector<double> w(static_cast<std::size_t>(n));
+      for (double& x : w) x = b.byte() < 200 ? 0.5 + b.byte() / 100.0 : b.real();
+      task->set_point_weights(w);
+    }
+    if (b.byte() > 180) {
+      Dof dof{};
+      for (bool& d : dof) d = b.byte() < 160;
+      task->set_dof(dof);
+    }
+  } catch (const std::invalid_argument&) {
+    return;
   }
   ServoOptions o;
   o.damping = b.byte() < 128 ? 0.0 : b.byte() / 1000.0;
-  o.jacobian = static_cast<InteractionMatrix>(b.small(0, 2));
-  Servo servo(task, o);
-  ServoInput in(task);
-  ServoOutput out(task);
-  for (Eigen::Index i = 0; i < in.uv.size(); ++i) in.uv.data()[i] = b.coordinate();
-  for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
-  for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
-  in.depth_desired = in.depth;
-  const auto random_pose = [&b]() {
-    Twist xi;
-    for (int i = 0; i < 6; ++i) xi(i) = b.byte() < 200 ? (b.byte() - 127.5) / 30.0 : b.real();
-    Pose T = xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(xi) : Pose::Identity();
-    if (b.byte() > 230) T(b.small(0, 2), b.small(0, 3)) = b.real();  // sometimes not a rigid transform
-    return T;
-  };
-  for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
-    const Pose cMo = random_pose(), cdMo = random_pose();
-    for (int k = 0; k < task.n_features(); ++k) {
-      const Feature& f = task.feature(k);
-      double* dst = m->data() + task.offset(k);
-      try {
-        std::array<double, 6> v{};
-        if (b.byte() < 128 || f.size() != 6) throw std::invalid_argument("from the bytes");
-        if (f.describe() == "2.5-D point")
-          v = Point25DFeature::measure(cMo, cdMo, Eigen::Vector3d(b.coordinate(), b.coordinate(), b.coordinate()));
-        else
-          v = PbvsFeature::measure(cMo, cdMo, f.describe() == "pbvs(object)" ? PbvsTarget::object
-                                                                              : PbvsTarget::desired_camera);
-        std::copy(v.begin(), v.end(), dst);
-      } catch (const std::invalid_argument&) {
-        for (int i = 0; i < f.size(); ++i) dst[i] = b.byte() < 160 ? b.coordinate() : b.real();
-      }
-    }
-  }
-  bool valid = true;
+  o.diagnostics = b.byte() < 200;
+  if (b.byte() > 200) o.max_linear_speed = b.real();
+  std::optional<Servo> servo;
   try {
-    servo.validate(in);
+    servo.emplace(*task, o);
   } catch (const std::invalid_argument&) {
-    valid = false;
+    return;  // no block (an empty Task) or bad options: refused at construction
   }
-  const Status st = servo.update(in, out);
-  ibvs_test::report(valid == (st != Status::invalid_input), "pose blocks: validate() throws iff update() refuses",
-                    __FILE__, __LINE__, task.describe());
-  check_output(out, st, true, "Servo::update (pose blocks)");
-  const Pose T = random_pose();
-  if (T.allFinite()) {
-    const Eigen::Vector3d tu = theta_u(T.topLeftCorner<3, 3>());
-    CHECK(tu.allFinite());
-    if ((T.topLeftCorner<3, 3>().transpose() * T.topLeftCorner<3, 3>() - Eigen::Matrix3d::Identity()).norm() < 1e-9)
-      CHECK(tu.norm() <= pi + 1e-12);
+  ServoInput in(*task);
+  ServoOutput out(*task);
+  for (int frame = 0; frame < 3; ++frame) {
+    for (Eigen::Index i = 0; i < in.uv.size(); ++i) in.uv.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
+    for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
+    for (Eigen::Index i = 0; i < in.depth_desired.size(); ++i) in.depth_desired(i) = b.depth();
+    for (int k = 0; k < task->n_features(); ++k) {
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements.data() + task->offset(k));
+      kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements_desired.data() + task->offset(k));
+    }
+    bool valid = true;
+    try {
+      servo->validate(in);
+    } catch (const std::invalid_argument&) {
+      valid = false;
+    }
+    const Status st = servo->update(in, out);
+    ibvs_test::report(valid == (st != Status::invalid_input), "task: validate() throws iff update() refuses",
+                      __FILE__, __LINE__, task->describe());
+    check_output(out, st, o.diagnostics, "Servo(Task)::update");
   }
-  Eigen::Vector3d tu(b.coordinate(), b.coordinate(), b.coordinate());
-  tu *= b.byte() / 10.0;
-  if (tu.norm() <= 2 * pi) CHECK(theta_u_interaction(tu).allFinite());
 }
 
 }  // namespace
@@ -298,7 +350,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   switch (b.byte() % 4) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
-    case 3: fuzz_pose(b); break;
+    case 2: fuzz_task(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

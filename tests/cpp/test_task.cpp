@@ -282,6 +282,11 @@ void refusals_agree() {
   CHECK_THROWS(Task().set_dof({false, false, false, false, false, false}));
   CHECK_THROWS(Task(Layout::cartesian(2)).set_point_weights({1.0}));
   CHECK_THROWS(Task().add(LineFeature(), 0.0));
+  // Weights within [1/max_task_weight, max_task_weight] (beyond, J^T J could overflow: the fuzz driver).
+  CHECK_THROWS(Task().add(LineFeature(), 2 * max_task_weight));
+  CHECK_THROWS(Task().add(LineFeature(), 0.5 / max_task_weight));
+  CHECK_THROWS(Task(Layout::cartesian(1)).set_point_weights({2 * max_task_weight}));
+  CHECK(Task().add(LineFeature(), max_task_weight).add(LineFeature(), 1.0 / max_task_weight).n_features() == 2);
 }
 
 }  // namespace

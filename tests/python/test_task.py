@@ -94,6 +94,10 @@ def test_refusals_name_the_block():
         ibvs.Servo(ibvs.Task(), gain=1.0)
     with pytest.raises(ValueError, match="weight"):
         ibvs.Task().add(ibvs.LineFeature(), weight=-1.0)
+    with pytest.raises(ValueError, match=r"weight must be finite and in \[1e-06, 1e\+06\]"):
+        ibvs.Task().add(ibvs.LineFeature(), weight=1e7)
+    with pytest.raises(ValueError, match=r"point_weights\[1\]"):
+        ibvs.Task(ibvs.Layout.cartesian(2)).point_weights = [1.0, 1e-7]
     with pytest.raises(ValueError, match="dof"):
         ibvs.Task().dof = ["Tq"]
     with pytest.raises(ValueError, match="distinct"):

@@ -60,6 +60,11 @@ inline constexpr double max_estimator_noise = 1e6;
 /// damping = 0 (QR/SVD) route may then use the heap.
 inline constexpr int max_realtime_rows = 256;
 
+/// Weights of a Task's blocks (task.hpp): in [1/max_task_weight, max_task_weight]. A weight
+/// scales its rows against the others; beyond 1e6 the weighted J^T J of the damped route
+/// can overflow with rows at the other limits (found by the fuzz driver: weights of 1e192).
+inline constexpr double max_task_weight = 1e6;
+
 /// Rows of the feature blocks of one Task (task.hpp), beside its points.
 inline constexpr int max_feature_rows = 100000;
 

@@ -39,10 +39,10 @@ class Task {
   Task& operator=(Task&&) noexcept;
   ~Task();
 
-  /// Appends a copy of `feature`; its rows are multiplied by `weight` (finite, > 0).
+  /// Appends a copy of `feature`; its rows are multiplied by `weight` (in [1e-6, 1e6]: max_task_weight).
   /// Throws std::invalid_argument for a bad weight or more than max_task_rows rows in all.
   Task& add(const Feature& feature, double weight = 1.0);
-  /// One weight per block of the Layout (finite, > 0); default all 1.
+  /// One weight per block of the Layout (each in [1e-6, 1e6]); default all 1.
   Task& set_point_weights(std::vector<double> weights);
   /// The controlled degrees of freedom (at least one).
   Task& set_dof(const Dof& dof);
