@@ -12,12 +12,14 @@ void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
 void bind_task(py::module_& m);         // bind_task.cpp
+void bind_segment_ellipse(py::module_& m);  // bind_segment_ellipse.cpp
 void bind_pose(py::module_& m);         // bind_pose.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
   m.attr("__version__") = IBVS_VERSION;
   bind_task(m);  // first: Servo(task) names ibvs.Task in its signature
+  bind_segment_ellipse(m);  // after bind_task: ibvs.Feature, their base
   bind_core(m);
   bind_camera(m);
   bind_estimators(m);

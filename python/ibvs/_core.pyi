@@ -365,6 +365,62 @@ class LineFeature(Feature):
     def measure(p1: _ArrayLike, p2: _ArrayLike, plane: _ArrayLike) -> _FloatArray:
         """The measurement (rho >= 0, theta, A, B, C) of the line through two distinct image points."""
 
+class SegmentFeature(Feature):
+    """An image segment (ViSP's vpFeatureSegment).
+
+    The segment from image point p1 (depth Z1) to p2 (depth Z2): centre (xc, yc), length l and
+    orientation alpha = atan2(y2 - y1, x2 - x1). Features: (xc/l, yc/l, 1/l, alpha) when
+    normalized (default; 1/l is proportional to the depth of a fronto-parallel segment), else
+    (xc, yc, l, alpha). Measurement (6): xc, yc, l, alpha, Z1, Z2, from
+    SegmentFeature.measure(p1, p2, Z1, Z2) or from two 3-D points by SegmentFeature.project(P1, P2).
+    The segment is unoriented: it is also its reverse (alpha + pi, Z1 and Z2 exchanged), and the
+    error uses the form whose alpha is nearest the goal's (alpha's difference wrapped into
+    (-pi, pi], at most pi/2). Interaction matrix: the end points' point rows composed (equal to
+    ViSP's closed form). Refused: a segment shorter than 1e-9 (zero length), depths outside
+    [1e-6, 1e6] m, a centre beyond 10 (normalised), non-finite values.
+    """
+
+    def __init__(self, normalized: bool = True) -> None: ...
+    @property
+    def normalized(self) -> bool:
+        """True: features (xc/l, yc/l, 1/l, alpha); False: (xc, yc, l, alpha)."""
+    @staticmethod
+    def measure(p1: _ArrayLike, p2: _ArrayLike, Z1: float, Z2: float) -> _FloatArray:
+        """The measurement (xc, yc, l, alpha, Z1, Z2) of the segment from image point p1 at depth Z1
+        to p2 at depth Z2 (normalised coordinates, metres)."""
+    @staticmethod
+    def project(P1: _ArrayLike, P2: _ArrayLike) -> _FloatArray:
+        """The measurement of the segment between two 3-D points of the camera frame (in front of
+        the camera)."""
+
+class EllipseFeature(Feature):
+    """An image ellipse or planar blob by its moments (ViSP's vpFeatureEllipse).
+
+    Features (xg, yg, n20, n11, n02): the centroid and the centred second-order moments divided by
+    the area (normalised coordinates; a disc of radius R has n20 = n02 = R^2 / 4). Measurement (8):
+    xg, yg, n20, n11, n02 and the plane A, B, C (1/Z = A x + B y + C) of the 3-D circle or planar
+    blob; from a 3-D circle by EllipseFeature.project_circle(centre, normal, radius), from an image
+    blob by EllipseFeature.measure_moments(cv2.moments(mask), plane, camera). Interaction matrix:
+    Chaumette 2004 (IEEE T-RO), eqs. (14) and (26). Refused: zero or negative area
+    (n20 n02 - n11^2 <= 0), a plane seen edge-on or behind the camera over the ellipse, a centroid
+    beyond 10 (normalised), non-finite values. A circle seen fronto-parallel and centred is a
+    singular configuration (the five rows have rank 3).
+    """
+
+    def __init__(self) -> None: ...
+    @staticmethod
+    def project_circle(centre: _ArrayLike, normal: _ArrayLike, radius: float) -> _FloatArray:
+        """The measurement of the image of a 3-D circle (camera frame, metres): its centre, the
+        normal of its plane (any length, either sign) and its radius."""
+    @staticmethod
+    def measure_moments(
+        moments: Union[dict[str, float], _ArrayLike], plane: _ArrayLike, camera: CameraModel | None = None
+    ) -> _FloatArray:
+        """The measurement of a planar blob from its image moments: cv2.moments' dict (or the 6
+        values m00, m10, m01, mu20, mu11, mu02), in pixels of `camera` (without lens distortion:
+        undistort first) or, camera None, in normalised coordinates; plane (A, B, C) of
+        1/Z = A x + B y + C."""
+
 class Task:
     """What a Servo drives to zero: the points of a Layout, then feature blocks.
 

@@ -323,6 +323,44 @@ void pose_blocks_allocate_nothing() {
       ibvs_test::report(during == 0, "no allocation in update (pose blocks)", __FILE__, __LINE__,
                         task.describe() + ": " + std::to_string(during));
       CHECK(st != Status::invalid_input && bad == Status::invalid_input);
+// Task blocks of the segment and the ellipse (with a point, weights, a DOF left out): every
+// route of update() (damping 0 and 0.01, the current, desired and mean Jacobians), the
+// unoriented segment's align() taking the reverse, and a refused measurement.
+void segment_ellipse_allocate_nothing() {
+  task.add(SegmentFeature()).add(SegmentFeature(false), 2.0).add(EllipseFeature(), 10.0);
+  for (bool all : {true, false}) {
+    if (!all) task.set_dof({true, true, true, true, true, false});
+    for (double lambda : {0.0, 0.01}) {
+      for (auto mode : {InteractionMatrix::current, InteractionMatrix::desired, InteractionMatrix::mean}) {
+        ServoOptions o;
+        o.damping = lambda;
+        o.jacobian = mode;
+        Servo servo(task, o);
+        ServoInput in(task);
+        ServoOutput out(task);
+        in.uv << 0.05, -0.02;
+        in.uv_desired << 0.0, 0.0;
+        const auto s1 = SegmentFeature::measure(0.1, 0.1, 1.0, -0.1, 0.12, 1.2);
+        const auto s2 = SegmentFeature::measure(0.1, -0.1, 1.0, 0.12, 0.1, 1.1);
+        const auto s1d = SegmentFeature::measure(-0.1, 0.12, 1.2, 0.1, 0.1, 1.0);  // the reverse: align() turns it
+        const auto e = EllipseFeature::project_circle({0.05, 0.0, 1.0}, {0.2, 0.1, -1.0}, 0.1),
+                   ed = EllipseFeature::project_circle({0.0, 0.0, 1.0}, {0.0, 0.0, -1.0}, 0.12);
+        std::copy(s1.begin(), s1.end(), in.measurements.data());
+        std::copy(s2.begin(), s2.end(), in.measurements.data() + 6);
+        std::copy(e.begin(), e.end(), in.measurements.data() + 12);
+        std::copy(s1d.begin(), s1d.end(), in.measurements_desired.data());
+        std::copy(s1.begin(), s1.end(), in.measurements_desired.data() + 6);
+        std::copy(ed.begin(), ed.end(), in.measurements_desired.data() + 12);
+        const long before = news.load();
+        Status st = servo.update(in, out);
+        const double sigma = out.sigma_min() + out.sigma_max();
+        in.measurements(12 + 3) = 1.0;  // n11^2 > n20 n02: refused
+        const Status bad = servo.update(in, out);
+        const long during = news.load() - before;
+        ibvs_test::report(during == 0, "no allocation in update with segment / ellipse blocks", __FILE__, __LINE__,
+                          task.describe() + ": " + std::to_string(during));
+        CHECK(st != Status::invalid_input && bad == Status::invalid_input && std::isfinite(sigma));
+      }
     }
   }
 }
@@ -340,6 +378,7 @@ void counter_sees_allocations() {
 
 void run_tests() {
   counter_sees_allocations();
+  segment_ellipse_allocate_nothing();
   estimators_allocate_nothing();
   episode_allocates_nothing();
   partitioned_allocates_nothing();

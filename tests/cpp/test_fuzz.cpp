@@ -17,8 +17,10 @@
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
 #include "ibvs/task.hpp"
-#include "ibvs/features/function.hpp"
+#include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/segment.hpp"
+#include "ibvs/features/function.hpp"
 #include "ibvs/features/pose.hpp"
 
 #include <array>
@@ -231,6 +233,55 @@ void line_measurement(Bytes& b, double* m) {
   m[4] = 1.0 / b.depth();
 }
 
+
+// The segment and the ellipse (features/segment.hpp, ellipse.hpp): measurements from their own
+// measurement functions, on geometry in view or on any input (what they return must then pass
+// check(); what they cannot measure they refuse with std::invalid_argument), then entries
+// sometimes overwritten with hostile doubles.
+Eigen::Vector3d in_view(Bytes& b) {
+  const double z = 0.2 + b.byte() / 40.0;
+  return {(b.byte() - 127.5) / 400.0 * z, (b.byte() - 127.5) / 400.0 * z, z};
+}
+
+template <std::size_t N>
+void measured(Bytes& b, const Feature& f, std::array<double, N> (*from)(Bytes&), double* m) {
+  std::array<double, N> v;
+  try {
+    v = from(b);
+    int entry = 0;
+    ibvs_test::report(f.check(v.data(), entry) == nullptr, "a measurement function's result is accepted", __FILE__,
+                      __LINE__, f.describe());
+  } catch (const std::invalid_argument&) {
+    for (double& x : v) x = b.real();
+  }
+  std::copy(v.begin(), v.end(), m);
+  while (b.byte() > 230) m[b.small(0, static_cast<int>(N) - 1)] = b.byte() < 128 ? b.real() : b.coordinate();
+}
+
+void segment_measurement(Bytes& b, double* m) {
+  measured<6>(b, SegmentFeature(), [](Bytes& b) {
+    if (b.byte() < 200) return SegmentFeature::project(in_view(b), in_view(b));
+    return SegmentFeature::measure(b.coordinate(), b.coordinate(), b.depth(), b.coordinate(), b.coordinate(),
+                                   b.depth());
+  }, m);
+}
+
+void ellipse_measurement(Bytes& b, double* m) {
+  measured<8>(b, EllipseFeature(), [](Bytes& b) {
+    const int how = b.small(0, 3);
+    if (how <= 1) {  // a circle in view, facing the camera
+      const Eigen::Vector3d c = in_view(b), n((b.byte() - 127.5) / 200.0, (b.byte() - 127.5) / 200.0, -1.0);
+      return EllipseFeature::project_circle(c, n, c.z() * (0.005 + b.byte() / 1000.0));
+    }
+    if (how == 2)
+      return EllipseFeature::project_circle({b.coordinate(), b.coordinate(), b.depth()},
+                                            {b.coordinate(), b.coordinate(), b.real()}, b.byte() < 128 ? b.real() : 0.1);
+    std::array<double, 6> mo;
+    for (double& x : mo) x = b.byte() < 200 ? b.coordinate() : b.real();
+    return EllipseFeature::measure_moments(mo, b.coordinate(), b.coordinate(), 1.0 / b.depth());
+  }, m);
+}
+
 // A camera <- object pose: mostly a rigid motion (any angle, exactly pi about z at times), sometimes
 // not one (measure() must then throw).
 Pose fuzz_rigid_pose(Bytes& b) {
@@ -272,6 +323,9 @@ constexpr auto fuzz_inverse = [](const double* m, double* s, Eigen::Ref<MatrixX6
 
 const FuzzKind fuzz_kinds[] = {
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
+    {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<SegmentFeature>(b.byte() < 160); },
+     segment_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<EllipseFeature>(); }, ellipse_measurement},
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<PbvsFeature>(PbvsTarget::desired_camera); },
      pose_measurement<0>},
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<PbvsFeature>(PbvsTarget::object); },

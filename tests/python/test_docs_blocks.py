@@ -139,6 +139,7 @@ PRINTS = {
     ("docs/ros.md", 'record="gantry.mcap"'): ["largest difference from the recorded twists: 0"],
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
     ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
+    ("docs/features.md", "the same segment, from its other end"): ["error against its reverse: 0.0"],
 }
 
 
