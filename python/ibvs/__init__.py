@@ -54,6 +54,8 @@ from ._core import (
     spherical_measurements,
     wrap_angle,
 )
+# 3-D (PBVS), 2.5-D and user-defined feature blocks
+from ._core import FunctionFeature, PbvsFeature, Point25DFeature, theta_u, theta_u_interaction
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
 from ._core import EllipseFeature, SegmentFeature  # feature blocks of a Task: the segment and the ellipse
 
@@ -95,6 +97,7 @@ __all__ = [
     "spherical_measurements",
     "wrap_angle",
 ]
+__all__ += ["FunctionFeature", "PbvsFeature", "Point25DFeature", "theta_u", "theta_u_interaction"]
 __all__ += ["EllipseFeature", "SegmentFeature"]
 
 
