@@ -212,7 +212,7 @@ AnyServo servo_copy(py::handle obj) {
     const Servo& s = obj.cast<const py_servo::PyServo&>().servo;
     ServoOptions o = s.options();
     o.diagnostics = true;
-    return Servo(s.layout(), o);
+    return Servo(s.task(), o);  // its points and its feature blocks (a Layout's Task: the same law, bit for bit)
   }
   if (py::isinstance<py_servo::PyPartitioned>(obj)) {
     const PartitionedServo& s = obj.cast<const py_servo::PyPartitioned&>().servo;
@@ -231,6 +231,7 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
   d["frame"] = r.status.frame;
   d["point"] = r.status.point;
   d["joint"] = r.status.joint;
+  d["feature"] = r.status.feature;
   d["frames_to_converge"] = r.metrics.frames_to_converge;
   d["camera_retreat"] = r.metrics.camera_retreat;
   d["path_length"] = r.metrics.path_length;
@@ -245,6 +246,8 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
   d["measured"] = rows_of(h.measured, k, {n, 2});
   d["projected"] = rows_of(h.projected, k, {n, 2});
   d["error"] = rows_of(h.error, k, {m});
+  d["measurements"] = rows_of(h.measurements, k, {static_cast<py::ssize_t>(h.measurements.cols())});
+  d["measurements_desired"] = Eigen::VectorXd(r.measurements_desired);
   d["error_norm"] = rows_of(h.error_norm, k);
   d["sigma_min"] = rows_of(h.sigma_min, k);
   if (robot) {
@@ -264,13 +267,67 @@ py::dict result_dict(const EpisodeResult& r, bool robot) {
   return d;
 }
 
+/// Appends the feature sources of a Python sequence to t (each validated against its points).
+void add_features(Target& t, py::handle features) {
+  if (features.is_none()) return;
+  if (py::isinstance<py::str>(features) || !py::isinstance<py::sequence>(features))
+    throw py::type_error("features must be a sequence of ibvs.sim.FeatureSource (e.g. LineSource(0, 1)), got " +
+                         type_name(features));
+  const py::sequence seq = py::reinterpret_borrow<py::sequence>(features);
+  for (std::size_t k = 0; k < seq.size(); ++k) {
+    if (!py::isinstance<FeatureSource>(seq[k]))
+      throw py::type_error("features[" + std::to_string(k) +
+                           "] must be an ibvs.sim.FeatureSource (e.g. LineSource(0, 1)), got " + type_name(seq[k]));
+    t.add(seq[k].cast<const FeatureSource&>());
+  }
+}
+
 }  // namespace
 
 void bind_sim(py::module_& m) {
   py::module_ s = m.def_submodule("sim", "Closed-loop simulator (C++). Use ibvs.sim, not this module.");
 
-  py::class_<Target>(s, "Target", "Points (N, 3) in the target frame and the target's world pose (4x4).")
-      .def(py::init([](py::handle pts, py::handle pose) {
+  py::class_<FeatureSource, std::shared_ptr<FeatureSource>>(s, "FeatureSource", R"(How the simulator measures one feature block of a Task on the target.
+
+A Target carries one source per feature block of the servo's Task, in the Task's order
+(Target(points, features=[...])). Each frame a source writes its block's measurement from the true
+pose of the target, the controller's points and what the depth mode knows (docs/simulator.md,
+"Feature sources"). The kinds: LineSource; others are added in C++ (ibvs/sim/source.hpp).)")
+      .def_property_readonly("size", &FeatureSource::size, "Values in one measurement (its Feature's size).")
+      .def("__repr__", [](const FeatureSource& f) { return "<ibvs feature source " + f.describe() + ">"; });
+
+  py::class_<LineSource, FeatureSource, std::shared_ptr<LineSource>>(s, "LineSource", R"(An image line (ibvs.LineFeature) through target points i and j.
+
+LineSource(i, j, k=None): (rho, theta) of the line through the controller's points i and j (with the
+sensor's noise, distortion and latency, as LineFeature.measure of them), and the plane (A, B, C) that
+holds the 3-D line from the pose the depth mode gives: the target's z = 0 plane (k None: both points
+in it), or the plane through points i, j and k (a non-planar target).)")
+      .def(py::init([](py::handle i, py::handle j, py::handle k) {
+             const int n = max_points;
+             return std::make_shared<LineSource>(int_in(i, "i", 0, n), int_in(j, "j", 0, n),
+                                                 k.is_none() ? -1 : int_in(k, "k", 0, n));
+           }),
+           py::arg("i"), py::arg("j"), py::arg("k") = py::none())
+      .def_property_readonly("i", &LineSource::i, "The line's first target point.")
+      .def_property_readonly("j", &LineSource::j, "The line's second target point.")
+      .def_property_readonly("k", [](const LineSource& l) -> py::object { return l.k() < 0 ? py::none() : py::cast(l.k()); },
+                             "The plane's third point, or None: the target's z = 0 plane.")
+      .def("__repr__",
+           [](const LineSource& l) {
+             return "LineSource(" + std::to_string(l.i()) + ", " + std::to_string(l.j()) +
+                    (l.k() >= 0 ? ", " + std::to_string(l.k()) : "") + ")";
+           })
+      .def(py::pickle([](const LineSource& l) { return py::make_tuple(l.i(), l.j(), l.k()); },
+                      [](const py::tuple& t) {
+                        if (t.size() != 3) throw py::value_error("LineSource: bad pickle state");
+                        return std::make_shared<LineSource>(t[0].cast<int>(), t[1].cast<int>(), t[2].cast<int>());
+                      }));
+
+  py::class_<Target>(s, "Target", R"(Points (N, 3) in the target frame, the target's world pose (4x4) and its feature sources.
+
+Target(points, pose=None, features=None): features, one ibvs.sim.FeatureSource per feature block of
+the servo's Task, in the Task's order (e.g. [LineSource(0, 1), LineSource(1, 2)]).)")
+      .def(py::init([](py::handle pts, py::handle pose, py::handle features) {
              const CArray a = as_array(pts, "points");
              if (a.ndim() != 2 || a.shape(1) != 3)
                throw py::value_error("points must have shape (N, 3), got " + shape_of(a));
@@ -278,9 +335,27 @@ void bind_sim(py::module_& m) {
              t.points = Eigen::Map<const Eigen::Matrix3Xd>(a.data(), 3, a.shape(0));
              t.pose = pose.is_none() ? Pose(Pose::Identity()) : pose_arg(pose, "pose");
              t.validate();
+             add_features(t, features);
              return t;
            }),
-           py::arg("points"), py::arg("pose") = py::none())
+           py::arg("points"), py::arg("pose") = py::none(), py::arg("features") = py::none())
+      .def_property_readonly(
+          "features",
+          [](const Target& t) {
+            py::list l;
+            for (const auto& src : t.sources) l.append(py::cast(std::const_pointer_cast<FeatureSource>(src)));
+            return l;
+          },
+          "The feature sources, in the order of the Task's feature blocks.")
+      .def(
+          "with_features",
+          [](const Target& t, py::handle features) {
+            Target out = t;
+            out.sources.clear();
+            add_features(out, features);
+            return out;
+          },
+          py::arg("features"), "A copy of the target (points, pose) with these feature sources instead.")
       .def_static("paper", &Target::paper, "Paper Table I: the points (+-0.25, +-0.25, 3) in the world.")
       .def_static(
           "square",
@@ -299,14 +374,18 @@ void bind_sim(py::module_& m) {
       .def("__repr__", &Target::describe)
       .def(py::pickle(
           [](const Target& t) {
-            return py::make_tuple(Eigen::MatrixX3d(t.points.transpose()), Eigen::Matrix4d(t.pose));
+            py::list sources;
+            for (const auto& src : t.sources) sources.append(py::cast(std::const_pointer_cast<FeatureSource>(src)));
+            return py::make_tuple(Eigen::MatrixX3d(t.points.transpose()), Eigen::Matrix4d(t.pose), sources);
           },
           [](const py::tuple& s) {
-            if (s.size() != 2) throw py::value_error("Target: bad pickle state");
+            if (s.size() != 2 && s.size() != 3) throw py::value_error("Target: bad pickle state");
             Target t;
             t.points = s[0].cast<Eigen::MatrixX3d>().transpose();
             t.pose = s[1].cast<Eigen::Matrix4d>();
             t.validate();
+            if (s.size() == 3)
+              for (const py::handle src : s[2].cast<py::list>()) t.add(src.cast<const FeatureSource&>());
             return t;
           }));
 

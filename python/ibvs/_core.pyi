@@ -703,10 +703,40 @@ class sim:
     declared in this namespace class: attribute access and annotations such as
     _core.sim.Camera type-check the same. Use ibvs.sim, not this."""
 
-    class Target:
-        """Points (N, 3) in the target frame and the target's world pose (4x4)."""
+    class FeatureSource:
+        """How the simulator measures one feature block of a Task on the target (one per block,
+        in the Task's order: Target(points, pose, features=[...]))."""
 
-        def __init__(self, points: _ArrayLike, pose: _ArrayLike | None = None) -> None: ...
+        @property
+        def size(self) -> int:
+            """Values in one measurement (its Feature's size)."""
+
+    class LineSource(FeatureSource):
+        """An image line (ibvs.LineFeature) through target points i and j; its plane: the target's
+        z = 0 plane (k None) or the plane through points i, j and k."""
+
+        def __init__(self, i: int, j: int, k: int | None = None) -> None: ...
+        @property
+        def i(self) -> int:
+            """The line's first target point."""
+        @property
+        def j(self) -> int:
+            """The line's second target point."""
+        @property
+        def k(self) -> int | None:
+            """The plane's third point, or None: the target's z = 0 plane."""
+
+    class Target:
+        """Points (N, 3) in the target frame, the target's world pose (4x4) and its feature sources."""
+
+        def __init__(
+            self, points: _ArrayLike, pose: _ArrayLike | None = None, features: Sequence[sim.FeatureSource] | None = None
+        ) -> None: ...
+        @property
+        def features(self) -> list[sim.FeatureSource]:
+            """The feature sources, in the order of the Task's feature blocks."""
+        def with_features(self, features: Sequence[sim.FeatureSource]) -> sim.Target:
+            """A copy of the target (points, pose) with these feature sources instead."""
         @staticmethod
         def paper() -> sim.Target:
             """Paper Table I: the points (+-0.25, +-0.25, 3) in the world."""

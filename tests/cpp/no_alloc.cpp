@@ -126,6 +126,46 @@ void robot_episode_allocates_nothing() {
   CHECK(r.history.frames > 10 && r.history.q.cols() == 7);
 }
 
+// Episodes of tasks with feature blocks (lines between target points, with and without the
+// points; every depth mode, so every depth pose: the true one, the goal's, the planar pose
+// estimate and the fit to the estimated points), free and on the gantry: the sources stage
+// and the servo's feature blocks allocate nothing per frame.
+void feature_episode_allocates_nothing() {
+  using namespace sim_cases;
+  for (bool points : {false, true}) {
+    for (bool gantry : {false, true}) {
+      for (DepthMode depth : {DepthMode::exact, DepthMode::pose, DepthMode::desired, DepthMode::estimated}) {
+        EpisodeOptions o;
+        o.duration = 5.0;
+        o.noise = gantry ? 0.3 : 1e-4;
+        o.latency = 2;
+        o.depth = depth;
+        o.depth_scale = 1.1;
+        ServoOptions so;
+        so.gain = gantry ? 2.0 : 1.0;
+        Task task(points ? Layout::stacked(4) : Layout::none());
+        for (int k = 0; k < 4; ++k) task.add(LineFeature());
+        const Gantry g = Gantry::afma6();
+        Target t = gantry ? gantry_target(g) : Target::paper();
+        for (int k = 0; k < 4; ++k) t.add(sim::LineSource(k, (k + 1) % 4));
+        std::optional<Episode> e;
+        if (gantry)
+          e.emplace(Servo(task, so), CameraModel::afma6(), t, g, o);
+        else
+          e.emplace(Servo(task, so), CameraModel::normalized(0.3), t, o);
+        const long before = news.load();
+        const EpisodeResult& r =
+            gantry ? e->run(gantry_start(), gantry_goal()) : e->run(general_motion(), Pose::Identity());
+        const long during = news.load() - before;
+        ibvs_test::report(during == 0, "no allocation in Episode::run of a task with lines", __FILE__, __LINE__,
+                          std::string(points ? "points+lines " : "lines ") + (gantry ? "gantry " : "free ") +
+                              to_string(depth) + ": " + std::to_string(during));
+        CHECK(r.history.frames > 10 && r.history.measurements.cols() == 20);
+      }
+    }
+  }
+}
+
 // An episode with a C++ sensor in place of the default (the measurement hook costs no allocation).
 class ShiftSensor final : public ibvs::sim::Sensor {
  public:
@@ -349,6 +389,7 @@ void run_tests() {
   joint_mapping_allocates_nothing();
   robot_episode_allocates_nothing();
   sensor_episode_allocates_nothing();
+  feature_episode_allocates_nothing();
   pixels_allocate_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});

@@ -1,6 +1,7 @@
 // Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
-// validate, update), PartitionedServo,
-// damped_pinv / singular_values and se3_exp: arbitrary bytes become a layout,
+// validate, update), PartitionedServo, damped_pinv / singular_values and se3_exp,
+// the simulator's feature sources (LineSource on a target, measure from any pose;
+// short episodes of a line task): arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
 //  * every function either throws std::invalid_argument or answers with finite numbers;
@@ -16,6 +17,7 @@
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/partitioned.hpp"
+#include "ibvs/sim/sim.hpp"
 #include "ibvs/task.hpp"
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/line.hpp"
@@ -213,7 +215,6 @@ void fuzz_pinv_exp(Bytes& b) {
   }
 }
 
-
 // ---- Tasks of feature blocks --------------------------------------------------
 // Each kind the task fuzzer draws from: a block and a measurement of it, mostly
 // plausible (so that the accepted path is reached), sometimes hostile (every
@@ -346,15 +347,72 @@ void fuzz_task(Bytes& b) {
   }
 }
 
+// Feature sources: a LineSource of any indices on a target of any points is accepted or refused
+// (std::invalid_argument); from any poses and points, measure() answers false or five finite
+// values; a short episode of a line task from any start either throws std::invalid_argument or
+// ends with finite recorded errors.
+void fuzz_sources(Bytes& b) {
+  using namespace ibvs::sim;
+  const int n = b.small(1, 5);
+  Eigen::Matrix3Xd P(3, n);
+  const bool plate = b.byte() < 160;
+  for (Eigen::Index i = 0; i < P.size(); ++i) P.data()[i] = plate && i % 3 == 2 ? 0.0 : b.coordinate();
+  Target t;
+  try {
+    t = Target(P);
+    t.validate();
+    t.add(LineSource(b.small(-1, 5), b.small(-1, 5), b.small(-2, 5)));
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  Twist xi, xd;
+  for (int i = 0; i < 6; ++i) xi(i) = b.byte() < 200 ? (b.byte() - 127.5) / 40.0 : b.real();
+  for (int i = 0; i < 6; ++i) xd(i) = b.byte() < 200 ? (b.byte() - 127.5) / 40.0 : b.real();
+  const auto pose = [](const Twist& x) {
+    return x.allFinite() && x.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(x) : Pose(Pose::Constant(x(0)));
+  };
+  SourceFrame f;
+  f.cMo = pose(xi);
+  f.depth_pose = pose(xd);
+  Points uv(2, n);
+  Eigen::VectorXd z(n);
+  for (Eigen::Index i = 0; i < uv.size(); ++i) uv.data()[i] = b.coordinate();
+  for (Eigen::Index i = 0; i < n; ++i) z(i) = b.depth();
+  f.points = &t.points;
+  f.uv = &uv;
+  f.depth = &z;
+  double m[5];
+  if (t.sources[0]->measure(f, m))
+    CHECK(std::isfinite(m[0]) && std::isfinite(m[1]) && std::isfinite(m[2]) && std::isfinite(m[3]) &&
+          std::isfinite(m[4]));
+  if (b.byte() < 224) return;  // an episode now and then (a few frames)
+  Task task;
+  task.add(LineFeature());
+  EpisodeOptions o;
+  o.duration = 0.05;
+  o.depth = static_cast<DepthMode>(b.small(0, 3));
+  t.pose = Pose::Identity();
+  t.pose(2, 3) = 1.0 + b.byte() / 64.0;
+  try {
+    Episode e(Servo(task), CameraModel::normalized(0.5), t, o);
+    const EpisodeResult& r = e.run(pose(xi), Pose::Identity());
+    for (int k = 0; k < r.history.frames; ++k)
+      if (!std::isnan(r.history.error_norm(k))) CHECK(std::isfinite(r.history.error_norm(k)));
+    CHECK(r.status.outcome != Outcome::lost_feature || r.status.feature == 0 || r.status.point >= 0);
+  } catch (const std::invalid_argument&) {
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 4) {
+  switch (b.byte() % 5) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
     case 2: fuzz_task(b); break;
-    default: fuzz_pinv_exp(b); break;
+    case 3: fuzz_pinv_exp(b); break;
+    default: fuzz_sources(b); break;
   }
   return 0;
 }

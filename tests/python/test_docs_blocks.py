@@ -129,6 +129,8 @@ PRINTS = {
     ("docs/arms.md", "cv2.aruco.ArucoDetector"): ["(converged)", "camera 1."],
     ("docs/arms.md", "print(r, r.history.q.shape)"): ["converged at frame 765"],
     ("docs/simulator.md", "noise=0.3, latency=1, seed=7"): ["converged"],
+    ("docs/simulator.md", "sim.LineSource(i, (i + 1) % 4)"): ["lines          converged at frame 368",
+                                                                "points + lines converged at frame 369"],
     ("docs/control-law.md", "ibvs.PartitionedServo(4, gain=1.0)"): ["cartesian    Tz"],
     ("docs/control-law.md", "max_linear_speed=0.5, max_angular_speed=1.0"): ["True 0.0625"],
     ("docs/hand-eye.md", 'mount="eye_in_hand", method="park")'): ["eMc error: 1.12 mm, 0.099 deg"],

@@ -208,3 +208,36 @@ def test_robot_helpers_finite_or_refused(q):
             continue
         assert np.isfinite(q).all(), (name, "accepted", q)
         assert all(finite(x) for x in (out if isinstance(out, tuple) else (out,))), (name, q, out)
+
+
+INDEX = st.one_of(st.integers(-2, 6), st.none(), st.floats(allow_nan=True, width=64), st.sampled_from(["0", True]))
+
+
+@settings(max_examples=80)
+@given(INDEX, INDEX, INDEX, hnp.arrays(np.float64, 6, elements=ENTRY))
+def test_line_sources_finite_or_refused(i, j, k, twist):
+    """sim.LineSource(i, j, k) on the paper's target (anything for the indices), then a short line-task
+    episode from any start (twist of the camera from the goal): refused with ValueError/TypeError naming
+    the argument, or finite measurements and errors, ending in one of the outcomes."""
+    case = sim.cases.general_motion()
+    try:
+        target = case.target.with_features([sim.LineSource(i, j, k)])
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, "i", "j", "k", "line", "sources[0]"), e
+        return
+    assert all(isinstance(x, int) and not isinstance(x, bool) for x in (i, j)) and len({i, j, k}) == 3 or k is None
+    task = ibvs.Task().add(ibvs.LineFeature())
+    if not (np.all(np.isfinite(twist)) and np.abs(twist).max() <= 2.0):
+        return  # start poses from se3_exp's documented domain
+    start = ibvs.se3_exp(twist)
+    try:
+        r = sim.run(ibvs.Servo(task, gain=1.0), case.camera, target, start, case.goal, duration=0.1,
+                    stop_on_singular=False)
+    except ValueError as e:
+        assert refused_by_name(e, "start", "goal"), e
+        return
+    assert r.status.outcome in sim.OUTCOMES
+    h = r.history
+    ok = np.isfinite(h.error_norm)
+    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
+    assert np.isfinite(h.twist).all()

@@ -9,8 +9,16 @@
 namespace ibvs {
 
 std::array<double, 5> LineFeature::measure(double x1, double y1, double x2, double y2, double A, double B, double C) {
+  std::array<double, 5> m{};
+  if (!measure(x1, y1, x2, y2, A, B, C, m.data()))
+    throw std::invalid_argument("ibvs: line: the two points must be distinct and finite (and the plane finite)");
+  return m;
+}
+
+bool LineFeature::measure(double x1, double y1, double x2, double y2, double A, double B, double C,
+                          double* m) noexcept {
   const double dx = x2 - x1, dy = y2 - y1, l = std::hypot(dx, dy);
-  if (!(l > 0.0) || !std::isfinite(l)) throw std::invalid_argument("ibvs: line: the two points must be distinct and finite");
+  if (!(l > 0.0) || !std::isfinite(l)) return false;
   // The unit normal (c, s) = (-dy, dx) / l; rho = (c, s) . p1, made >= 0.
   double c = -dy / l, s = dx / l, rho = c * x1 + s * y1;
   if (rho < 0.0) {
@@ -18,7 +26,13 @@ std::array<double, 5> LineFeature::measure(double x1, double y1, double x2, doub
     c = -c;
     s = -s;
   }
-  return {rho, polar_angle(c, s), A, B, C};
+  if (!std::isfinite(rho) || !std::isfinite(A) || !std::isfinite(B) || !std::isfinite(C)) return false;
+  m[0] = rho;
+  m[1] = polar_angle(c, s);
+  m[2] = A;
+  m[3] = B;
+  m[4] = C;
+  return true;
 }
 
 const char* LineFeature::check(const double* m, int& entry) const noexcept {

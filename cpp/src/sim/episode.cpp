@@ -6,6 +6,7 @@
 #include "stages/judge.hpp"
 #include "stages/measure.hpp"
 #include "stages/record.hpp"
+#include "stages/sources.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -82,6 +83,12 @@ const Layout& layout_of(const AnyServo& servo) noexcept {
   return std::visit([](const auto& s) -> const Layout& { return s.layout(); }, servo);
 }
 
+// What the servo drives to zero: a Servo's task; a PartitionedServo's layout (its Cartesian error rows).
+Task task_of(const AnyServo& servo) {
+  if (const Servo* s = std::get_if<Servo>(&servo)) return s->task();
+  return Task(layout_of(servo));
+}
+
 }  // namespace
 
 // The loop's stages, one of each (see their headers for what each does). The stages are
@@ -91,6 +98,7 @@ const Layout& layout_of(const AnyServo& servo) noexcept {
 struct Episode::Stages {
   stages::Measure measure;
   stages::Depths depths;
+  stages::Sources sources;
   stages::Control control;
   stages::Actuate actuate;
   stages::Judge judge;
@@ -118,20 +126,24 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   target_.validate();
   options_.validate();
   const int n = target_.size();
-  const Layout& layout = layout_of(servo_);
-  if (layout.n_points() != n)
-    throw std::invalid_argument("ibvs: servo layout has " + std::to_string(layout.n_points()) +
-                                " points but the target has " + std::to_string(n));
+  const Task task = task_of(servo_);
+  const bool blocks = task.n_features() > 0;
+  if (task.n_points() != n && !(blocks && task.n_points() == 0))
+    throw std::invalid_argument("ibvs: servo layout has " + std::to_string(task.n_points()) +
+                                " points but the target has " + std::to_string(n) +
+                                (blocks ? " (a task of feature blocks has the target's points or none)" : ""));
   const long frames = std::lround(options_.duration * camera_.fps());
   stages_.reset(new Stages{stages::Measure(camera_, target_.world_points(), options_.latency, options_.min_depth),
                            stages::Depths(options_, camera_, target_.points),  // pose: throws unless planar
-                           stages::Control(layout, camera_, options_), stages::Actuate(1.0 / camera_.fps()),
+                           stages::Sources(target_, std::holds_alternative<Servo>(servo_) ? &task : nullptr, options_),
+                           stages::Control(task, camera_, options_, n), stages::Actuate(1.0 / camera_.fps()),
                            stages::Judge(target_, options_, static_cast<int>(std::min(frames, 10'000'000L)))});
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
-  stages::allocate(result_.history, frames, n, layout.rows());
+  stages::allocate(result_.history, frames, n, task.rows(), task.measurement_size());
   result_.uv_desired.resize(2, n);
   result_.measured_desired.resize(2, n);
   result_.depth_desired.resize(n);
+  result_.measurements_desired.resize(task.measurement_size());
 }
 
 Episode::Episode(AnyServo servo, CameraModel camera, Target target, std::shared_ptr<Robot> robot,
@@ -156,6 +168,8 @@ void Episode::prepare(const Pose& goal) {
   s.measure.teach(goal, *sensor_, result_.uv_desired, result_.depth_desired);
   result_.measured_desired = s.measure.goal_measured();
   s.depths.aim(result_.depth_desired);
+  s.sources.teach(goal, result_.uv_desired, result_.depth_desired);
+  result_.measurements_desired = s.sources.desired();
   s.control.aim(s.measure.goal_measured());
   s.judge.aim(goal);
 }
@@ -202,6 +216,7 @@ const EpisodeResult& Episode::run(const JointVector& q_start, const JointVector&
 void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   stages::Measure& measure = stages_->measure;
   stages::Depths& depths = stages_->depths;
+  stages::Sources& sources = stages_->sources;
   stages::Control& control = stages_->control;
   stages::Actuate& actuate = stages_->actuate;
   stages::Judge& judge = stages_->judge;
@@ -235,8 +250,20 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     // Estimate depths, then control.
     depths.estimate(k, measure.uv(), measure.true_depths(seen));
     stages::record_view(h, k, measure.uv(), depths.depth());
-    const Status s = control.step(servo_, measure.uv(), depths.depth(), result_.uv_desired, result_.depth_desired,
-                                  measure.measured(seen));
+
+    // Measure the feature blocks (a task's lines, ellipses...) on the frame the controller sees.
+    if (sources.active()) {
+      const int lost = sources.measure(k, measure.camera_from_world(seen), depths.pose_estimate(), measure.uv(),
+                                       depths.depth());
+      if (lost < 0) stages::record_measurements(h, k, sources.measurements());
+      if (judge.features(k, lost, st)) break;
+    }
+    const Status s =
+        sources.active()
+            ? control.step(servo_, measure.uv(), depths.depth(), result_.uv_desired, result_.depth_desired,
+                           sources.measurements(), sources.desired(), measure.measured(seen))
+            : control.step(servo_, measure.uv(), depths.depth(), result_.uv_desired, result_.depth_desired,
+                           measure.measured(seen));
     if (s != Status::invalid_input) stages::record_control(h, k, control.output());
     if (judge.control(k, s, control.output(), sighting.pixel_error, st)) break;
 

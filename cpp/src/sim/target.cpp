@@ -63,13 +63,27 @@ void Target::validate() const {
   if (!(R.transpose() * R).isIdentity(1e-9) || std::abs(R.determinant() - 1.0) > 1e-9 ||
       !pose.bottomRows<1>().isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
     throw std::invalid_argument("ibvs: target pose must be a rigid transform (orthonormal R, last row 0 0 0 1)");
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    const std::string name = "target sources[" + std::to_string(k) + "]";
+    if (!sources[k]) throw std::invalid_argument("ibvs: " + name + " must not be null");
+    sources[k]->validate(points, name + " (" + sources[k]->describe() + ")");
+  }
+}
+
+Target& Target::add(const FeatureSource& source) {
+  const std::string name = "target sources[" + std::to_string(sources.size()) + "] (" + source.describe() + ")";
+  source.validate(points, name);
+  sources.push_back(std::shared_ptr<const FeatureSource>(source.clone()));
+  return *this;
 }
 
 std::string Target::describe() const {
   char buf[160];
-  std::snprintf(buf, sizeof buf, "Target(%d points, origin at (%g, %g, %g))", size(), pose(0, 3), pose(1, 3),
+  std::snprintf(buf, sizeof buf, "Target(%d points, origin at (%g, %g, %g)", size(), pose(0, 3), pose(1, 3),
                 pose(2, 3));
-  return buf;
+  std::string out = buf;
+  for (std::size_t k = 0; k < sources.size(); ++k) out += (k ? ", " : "; features ") + sources[k]->describe();
+  return out + ")";
 }
 
 }  // namespace ibvs::sim

@@ -23,7 +23,7 @@ a robot's base frame is the world frame.
 from __future__ import annotations
 
 from . import cases
-from .episode import Camera, Gantry, Robot, Sensor, Target, run
+from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
 from .miscalibrated import MiscalibratedRobot
@@ -33,11 +33,13 @@ from .urdf import UrdfRobot, example_robot_urdf
 
 __all__ = [
     "Camera",
+    "FeatureSource",
     "Gantry",
     "HandEyeData",
     "HandEyeScene",
     "History",
     "IKResult",
+    "LineSource",
     "Metrics",
     "MiscalibratedRobot",
     "OUTCOMES",

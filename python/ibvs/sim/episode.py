@@ -18,6 +18,8 @@ Target = _sim.Target
 Robot = _sim.Robot
 Gantry = _sim.Gantry
 Sensor = _sim.Sensor
+FeatureSource = _sim.FeatureSource
+LineSource = _sim.LineSource
 
 
 _REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}
@@ -27,6 +29,9 @@ def _describe_servo(servo) -> str:
     """A short name of a servo's control law, e.g. "polar 8x6", "stacked 16x6", "partitioned (4 points)"."""
     if isinstance(servo, PartitionedServo):
         return f"partitioned ({servo.n_points} points)"
+    task = getattr(servo, "task", None)
+    if task is not None and task.features:  # points and feature blocks, e.g. "task 12x6: cartesian(4) + line + line"
+        return f"task {task.rows}x6: {repr(task)[5:-1]}"
     layout = servo.layout
     kinds = {str(rep) for _, rep in layout.blocks}
     points = [p for p, _ in layout.blocks]
@@ -84,13 +89,19 @@ def run(
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
-    servo: an ibvs.Servo (any layout and every option: gain or AdaptiveGain, damping,
-        jacobian mode, polar_min_radius, max_linear_speed / max_angular_speed) or an
-        ibvs.PartitionedServo. The episode runs a copy with the same options, with its
-        diagnostics on (the history records sigma_min); the object itself is not modified.
+    servo: an ibvs.Servo (any Layout or Task: points, feature blocks such as ibvs.LineFeature,
+        weights, DOF; every option: gain or AdaptiveGain, damping, jacobian mode,
+        polar_min_radius, max_linear_speed / max_angular_speed) or an ibvs.PartitionedServo.
+        The episode runs a copy with the same task and options, with its diagnostics on (the
+        history records sigma_min); the object itself is not modified.
     camera, target: an ibvs.CameraModel (also ibvs.sim.Camera) and a Target with as many points
-        as the servo's layout. A point the camera model cannot map (beyond its max_radius) ends
-        the episode as left_image, like a point outside the sensor.
+        as the servo's layout (a Task of feature blocks only: any number), and one feature
+        source per feature block of the servo's Task, in its order (Target(points, pose,
+        features=[LineSource(0, 1), ...]); docs/simulator.md, "Feature sources"). A point the
+        camera model cannot map (beyond its max_radius) ends the episode as left_image, like a
+        point outside the sensor; the target's points decide it for the features made of them.
+        A block its source cannot measure (e.g. a line's plane through the camera centre) ends
+        it as lost_feature (RunStatus.feature).
     start, goal: 4x4 world <- camera poses; with a robot (an ibvs.sim.Robot: a Gantry, a
         UrdfRobot or any subclass), start is its n joint positions and goal n joint positions
         or a 4x4 world <- camera pose. The desired features are what the camera measures at
@@ -105,12 +116,15 @@ def run(
         points; needs a planar target), "desired" (the constant desired depths) or
         "estimated" (online, per point, from successive frames and the camera's motion
         between them as the robot reports it: a Kalman filter on the point and its
-        inverse depth (x, y, 1/z), initialised at depth_scale * z*).
+        inverse depth (x, y, 1/z), initialised at depth_scale * z*). A feature block's depth
+        inputs (a line's plane...) come from the matching pose: the true one, the goal's, the
+        planar pose estimate, or the target's points fitted to the estimated points.
     depth_scale: in [1e-3, 1e3], multiplies the depth given to the controller (a depth calibration
         error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).
-    tolerance: converged when the servo's error norm (of its features: normalised coordinates,
-        and radians for theta rows) is below this; default 1e-4 without tolerance_px, else none.
+    tolerance: converged when the servo's error norm (of its task's features, weighted:
+        normalised coordinates, and radians for theta rows) is below this; default 1e-4 without
+        tolerance_px, else none.
     tolerance_px: None, or converged when every point of the frame's measurement (the points as
         the sensor or a tracker reports them, before latency: History.measured) lies within this
         distance of the goal's measurement (Result.measured_desired), in measurement units
@@ -152,6 +166,9 @@ def run(
         raise TypeError(f"latency must be an int (frames), got {type(latency).__name__}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise TypeError(f"seed must be a non-negative int, got {seed!r}")
+    if record is not None and getattr(getattr(servo, "task", None), "features", None):
+        raise ValueError("record: a Task with feature blocks other than points is not recorded (ibvs.ros records "
+                         "point tasks)")
     if isinstance(vision, str):
         from .. import vision as _vision
 
@@ -197,7 +214,7 @@ def run(
         standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
         sensor=vision if recording is None else recording.sensor,
     )
-    status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"])
+    status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"], d["feature"])
     history = History(
         d["time"],
         d["pose"],
@@ -213,6 +230,7 @@ def run(
         d.get("manipulability"),
         d["measured"],
         d["projected"],
+        d["measurements"],
     )
     metrics = Metrics(
         d["frames_to_converge"],
@@ -224,7 +242,8 @@ def run(
     )
     result = Result(status, metrics, history, d["uv_desired"], d["depth_desired"], d["goal"], camera=camera,
                     target=target, robot=robot, layout=servo.layout, servo=_describe_servo(servo), sensor=vision,
-                    tolerance=tolerance, tolerance_px=tolerance_px, measured_desired=d["measured_desired"])
+                    tolerance=tolerance, tolerance_px=tolerance_px, measured_desired=d["measured_desired"],
+                    measurements_desired=d["measurements_desired"])
     if recording is not None:
         recording.write(result, servo, dict(duration=duration, noise=noise, latency=latency, depth=depth, seed=seed,
                                             depth_scale=depth_scale, boundary_margin=boundary_margin,

@@ -32,12 +32,16 @@ class RunStatus:
     points' centroid through the farthest point) or came closer to it than the standoff;
     a non-planar target has no front (never target_backside) and collides within the
     standoff of any of its points. See run(standoff_ratio=...).
+
+    feature: index (0-based) of the Task's feature block for a lost_feature its source could
+    not measure (e.g. a line whose plane passes through the camera centre), else -1.
     """
 
     outcome: str
     frame: int
     point: int = -1
     joint: int = -1
+    feature: int = -1
 
     @property
     def converged(self) -> bool:
@@ -91,6 +95,9 @@ class History:
     With a robot (else None): q (K, n), qdot (K, n) joint velocity applied after the frame,
     manipulability (K,) the product of the singular values of the robot's camera Jacobian
     (|det J| = |cos q5| on the gantry).
+    measurements (K, S): the feature blocks' measurements given to the controller (a Task's
+    lines...: each kind's values, concatenated in block order; S = Task.measurement_size, 0 for
+    points only); error then holds the points' rows followed by each block's rows.
     """
 
     time: np.ndarray
@@ -107,6 +114,7 @@ class History:
     manipulability: Optional[np.ndarray] = None
     measured: Optional[np.ndarray] = None
     projected: Optional[np.ndarray] = None
+    measurements: Optional[np.ndarray] = None
 
     def __len__(self) -> int:
         return len(self.time)
@@ -167,7 +175,8 @@ class Result:
     How convergence was judged: tolerance (the error norm had to be below it; None: not tested)
     and tolerance_px (every measured point within this distance of its goal, measurement units;
     None: not tested); measured_desired (N, 2) is the goal as the sensor measured it, what
-    pixel_error compares each frame's measurement with."""
+    pixel_error compares each frame's measurement with. measurements_desired (S,): the feature
+    blocks' measurements at the goal (a Task's lines...; empty for points only)."""
 
     status: RunStatus
     metrics: Metrics
@@ -184,6 +193,7 @@ class Result:
     tolerance: Optional[float] = 1e-4
     tolerance_px: Optional[float] = None
     measured_desired: Optional[np.ndarray] = None
+    measurements_desired: Optional[np.ndarray] = None
 
     @property
     def converged(self) -> bool:
@@ -252,7 +262,8 @@ class Result:
 
     def __repr__(self) -> str:
         s, m = self.status, self.metrics
-        extra = f", point={s.point}" if s.point >= 0 else f", joint={s.joint}" if s.joint >= 0 else ""
+        extra = (f", point={s.point}" if s.point >= 0 else f", joint={s.joint}" if s.joint >= 0
+                 else f", feature={s.feature}" if s.feature >= 0 else "")
         judged = f" ({self.judged()})" if s.converged else f" (not converged: {self.judged()})"
         return (
             f"Result({s.outcome} at frame {s.frame}{extra}{judged}, retreat={m.camera_retreat:.4g} m, "

@@ -33,6 +33,9 @@ class LineFeature final : public Feature {
   /// The measurement of the line through two image points (x1, y1), (x2, y2)
   /// (normalised; distinct) in the plane (A, B, C): rho >= 0 and theta in (-pi, pi].
   static std::array<double, 5> measure(double x1, double y1, double x2, double y2, double A, double B, double C);
+  /// The same into m (5 doubles), noexcept and allocation-free (the simulator's LineSource
+  /// calls it every frame); false (m untouched) when the points coincide or a value is not finite.
+  static bool measure(double x1, double y1, double x2, double y2, double A, double B, double C, double* m) noexcept;
 
   std::unique_ptr<Feature> clone() const override { return std::make_unique<LineFeature>(*this); }
   std::string describe() const override { return "line"; }

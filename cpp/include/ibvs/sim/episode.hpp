@@ -98,6 +98,19 @@
 // joints) and judge (every outcome above, asked after each stage in the order
 // given here); record writes the History.
 //
+// Feature blocks (a Servo of a Task with lines, ellipses, moments, poses...,
+// task.hpp): the target carries one FeatureSource per block, in the Task's
+// order (ibvs/sim/source.hpp says what each is given and which pose each depth
+// mode gives for its depth inputs). After the depth stage, every source
+// writes its block's measurement for the frame the controller sees (the
+// sources stage) and the servo runs on the task: its points (if any: a Task
+// with points has exactly the target's points, in order) and its blocks. A
+// source that cannot measure, or a measurement its block refuses, ends the
+// episode as lost_feature (EpisodeStatus::feature). Everything else holds for
+// any task: the error is the task's (weighted) f (-) f*, converged compares its
+// norm with tolerance, and the target's points (the geometry the features are
+// made of) decide left_image, behind_camera, the faces and tolerance_px.
+//
 // Episode preallocates everything; run() does not touch the heap.
 #pragma once
 
@@ -150,7 +163,9 @@ enum class Outcome : std::uint8_t {
   timeout = 6,        ///< duration elapsed
   target_backside = 7,  ///< the camera centre went behind the planar target's plane (see above)
   collision = 8,        ///< the camera went through the target or within the standoff of it (see above)
-  lost_feature = 9,     ///< the sensor lost a point (tracking gate, image border, not detected; EpisodeStatus::point)
+  /// the sensor lost a point (tracking gate, image border, not detected; EpisodeStatus::point), or a
+  /// feature block could not be measured (EpisodeStatus::feature; source.hpp)
+  lost_feature = 9,
 };
 const char* to_string(Outcome o) noexcept;
 const char* to_string(DepthMode d) noexcept;
@@ -187,6 +202,7 @@ struct EpisodeStatus {
   int frame = -1;  ///< frame of the event (last frame for timeout)
   int point = -1;  ///< point index for left_image / behind_camera / lost_feature (and collision with a non-planar target)
   int joint = -1;  ///< joint index for joint_limit
+  int feature = -1;  ///< feature block index for lost_feature (a block its source could not measure)
 };
 
 struct Metrics {
@@ -205,7 +221,10 @@ using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::R
 /// uv, rtheta and depth record what the controller was given, whatever the
 /// servo does with it (rtheta is the points in polar form, also for a
 /// Cartesian or partitioned servo). error is the servo's ServoOutput::error:
-/// f (-) f* of its layout, the Cartesian error (M = 2N) for a PartitionedServo.
+/// f (-) f* of its task (points, then feature blocks, weighted), the Cartesian
+/// error (M = 2N) for a PartitionedServo. measurements: the feature blocks'
+/// measurements the controller was given (S = Task::measurement_size(); 0
+/// columns for a task of points only).
 /// sigma_min is ServoOutput::sigma_min: for a Servo the smallest singular value
 /// of its interaction matrix (NaN, "not computed", when its diagnostics are off
 /// on the damped route), for a PartitionedServo that of the four (Tx, Ty, wx, wy)
@@ -228,7 +247,8 @@ struct History {
   RowMatrix depth;         ///< K x N: depths given to the controller
   RowMatrix measured;      ///< K x 2N: the sensor's (u, v) per point at frame k (measurement units, before latency)
   RowMatrix projected;     ///< K x 2N: the true projections at frame k (measurement units)
-  RowMatrix error;         ///< K x M: f (-) f* (the servo's error; M = 2N for a PartitionedServo)
+  RowMatrix error;         ///< K x M: f (-) f* (the servo's error: M = Task::rows(), 2N for a PartitionedServo)
+  RowMatrix measurements;  ///< K x S: the feature blocks' measurements given to the controller
   Eigen::VectorXd error_norm, sigma_min;
   /// product of the camera Jacobian's singular values (JointMappingOutput::manipulability;
   /// |det J| = |cos q5| on the gantry), robot only
@@ -250,13 +270,15 @@ struct EpisodeResult {
   /// compares each frame's measurement with.
   Points measured_desired;
   Eigen::VectorXd depth_desired;  ///< N
+  Eigen::VectorXd measurements_desired;  ///< S, the feature blocks' measurements at the goal
   Pose goal = Pose::Identity();   ///< world <- camera at the goal
 };
 
 /// One simulated set-up, run as often as wanted. The constructor validates
 /// (throws std::invalid_argument) and allocates; run() only checks its start
 /// and goal (throws) and then loops without allocating. The servo (a Servo or a
-/// PartitionedServo, moved in) must have as many points as the target.
+/// PartitionedServo, moved in) must have as many points as the target, or (a Servo of a
+/// Task of feature blocks only) none, and one source in Target::sources per feature block.
 class Episode {
  public:
   /// Free-flying camera.

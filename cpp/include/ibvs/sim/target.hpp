@@ -1,12 +1,17 @@
-// The observed object: N points given in the target's own frame, and the
-// target's pose in the world.
+// The observed object: N points given in the target's own frame, the
+// target's pose in the world, and the sources of the feature blocks a Task
+// servoes on besides its points (source.hpp: lines between target points...),
+// one per block, in the Task's block order.
 #pragma once
 
 #include "ibvs/se3.hpp"
+#include "ibvs/sim/source.hpp"
 
 #include <Eigen/Core>
 
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace ibvs::sim {
 
@@ -21,6 +26,12 @@ struct Target {
   ~Target();
   Eigen::Matrix3Xd points;         ///< 3 x N, target frame, metres
   Pose pose = Pose::Identity();    ///< world <- target
+  /// The feature blocks' sources, in the Task's block order (shared, immutable: copies of the
+  /// Target share them, as copies of a Task share its blocks).
+  std::vector<std::shared_ptr<const FeatureSource>> sources;
+
+  /// Appends a copy of `source` (validated against the points: throws std::invalid_argument).
+  Target& add(const FeatureSource& source);
 
   /// Paper Table I: the four points (+-0.25, +-0.25, 3) in the world (target
   /// frame at (0, 0, 3), axes of the world). Order: (-,-), (+,-), (+,+), (-,+).
@@ -35,7 +46,7 @@ struct Target {
   /// Points in the world frame, 3 x N.
   Eigen::Matrix3Xd world_points() const;
 
-  /// Throws std::invalid_argument naming the bad field.
+  /// Throws std::invalid_argument naming the bad field (points, pose, sources[k]).
   void validate() const;
   std::string describe() const;
 };

@@ -2,7 +2,9 @@
 // (a Servo, paper eqs. 11-13, or a PartitionedServo, Corke & Hutchinson 2001)
 // for the controller's points and depths, plus, with boundary_margin > 0 and
 // boundary_gain > 0, the image-boundary potential's retreat along Tz (paper
-// Section IV; the formula is in ibvs/sim/episode.hpp). Both servos' update()
+// Section IV; the formula is in ibvs/sim/episode.hpp). A Servo of a Task with
+// feature blocks is given their measurements (the sources stage) and the
+// target's points only if its task has points. Both servos' update()
 // are noexcept and allocation-free; so is this stage once built.
 #pragma once
 
@@ -38,18 +40,25 @@ class BoundaryPotential {
 
 class Control {
  public:
-  Control(const Layout& layout, const CameraModel& camera, const EpisodeOptions& options);
+  /// task: the servo's (a PartitionedServo's: its layout); n: the target's points (-1: the task's).
+  Control(const Task& task, const CameraModel& camera, const EpisodeOptions& options, int n = -1);
   void aim(const Eigen::Ref<const Points>& goal_measured) noexcept { boundary_.aim(goal_measured); }
-  /// servo.update(uv, z, uv_desired, z_desired) into output(), then (unless the servo refused
-  /// the input) the boundary potential's Tz for `measured`, the measurement uv came from.
+  /// servo.update(uv, z, uv_desired, z_desired) into output() (with a task's feature blocks:
+  /// also their measurements m and m_desired; no points for a task without them), then (unless
+  /// the servo refused the input) the boundary potential's Tz for `measured`, the measurement
+  /// uv came from.
   Status step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
               const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured) noexcept;
+  Status step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
+              const Eigen::VectorXd& z_desired, const Eigen::VectorXd& m, const Eigen::VectorXd& m_desired,
+              const Eigen::Ref<const Points>& measured) noexcept;
   const ServoOutput& output() const noexcept { return out_; }
   const BoundaryPotential& boundary() const noexcept { return boundary_; }
 
  private:
   ServoOutput out_;
   BoundaryPotential boundary_;
+  int task_points_ = 0;  // the servo's points: the target's, or none
 };
 
 // ---------------------------------------------------------------- implementation
@@ -96,13 +105,27 @@ inline double BoundaryPotential::tz(const Eigen::Ref<const Points>& measured,
   return std::isfinite(tz) ? tz : 0.0;
 }
 
-inline Control::Control(const Layout& layout, const CameraModel& camera, const EpisodeOptions& options)
-    : out_(layout), boundary_(camera, options.boundary_margin, options.boundary_gain, layout.n_points()) {}
+inline Control::Control(const Task& task, const CameraModel& camera, const EpisodeOptions& options, int n)
+    : out_(task),
+      boundary_(camera, options.boundary_margin, options.boundary_gain, n < 0 ? task.n_points() : n),
+      task_points_(task.n_points()) {}
 
 inline Status Control::step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
                             const Eigen::VectorXd& z_desired, const Eigen::Ref<const Points>& measured) noexcept {
   const Status s =
       std::visit([&](auto& law) noexcept { return law.update(uv, z, uv_desired, z_desired, out_); }, servo);
+  if (s != Status::invalid_input && boundary_.active()) out_.velocity(2) += boundary_.tz(measured, z);
+  return s;
+}
+
+inline Status Control::step(AnyServo& servo, const Points& uv, const Eigen::VectorXd& z, const Points& uv_desired,
+                            const Eigen::VectorXd& z_desired, const Eigen::VectorXd& m,
+                            const Eigen::VectorXd& m_desired, const Eigen::Ref<const Points>& measured) noexcept {
+  Servo* law = std::get_if<Servo>(&servo);  // feature blocks: a Servo (the episode checked it)
+  if (!law) return Status::invalid_input;
+  const Eigen::Index np = task_points_;
+  const Status s = law->update(uv.leftCols(np), z.head(np), uv_desired.leftCols(np), z_desired.head(np), m,
+                               m_desired, out_);
   if (s != Status::invalid_input && boundary_.active()) out_.velocity(2) += boundary_.tz(measured, z);
   return s;
 }

@@ -50,6 +50,8 @@ class Depths {
   void odometry(int k, const Pose& T_wc, const Pose& T_next) noexcept;
 
   const Eigen::VectorXd& depth() const noexcept { return z_; }  ///< N, metres
+  /// The pose mode's last estimate (camera <- target, before depth_scale), or null before the first.
+  const Pose* pose_estimate() const noexcept { return have_pose_ ? &pose_ : nullptr; }
   /// Motion recorded for frame k: the camera's new pose in its old frame.
   const Pose& motion(int k) const noexcept { return ring_motion_[static_cast<std::size_t>(k % slots_)]; }
 

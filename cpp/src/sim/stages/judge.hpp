@@ -9,6 +9,7 @@
 //               sensor or the model's domain), diverged (the sensor failed),
 //               lost_feature (the sensor lost a point);
 //   view()      left_image (a pixel the model cannot normalise);
+//   features()  lost_feature (a feature block its source could not measure);
 //   control()   diverged (the servo refused its input), converged (error norm
 //               under tolerance and, with tolerance_px > 0, the frame's worst
 //               measured point within tolerance_px of its goal), singular (stop_on_singular), diverged (a
@@ -51,6 +52,8 @@ class Judge {
               EpisodeStatus& st) noexcept;
   bool sighting(int k, const Sighting& s, EpisodeStatus& st) const noexcept;
   bool view(int k, int lost, EpisodeStatus& st) const noexcept;
+  /// lost: the sources stage's first block it could not measure (-1: none).
+  bool features(int k, int lost, EpisodeStatus& st) const noexcept;
   /// pixel_error: the frame's Sighting::pixel_error (used when tolerance_px > 0; NaN never passes).
   bool control(int k, Status s, const ServoOutput& out, double pixel_error, EpisodeStatus& st) noexcept;
   bool motion(int k, int joint, EpisodeStatus& st) const noexcept;
@@ -137,6 +140,12 @@ inline bool Judge::sighting(int k, const Sighting& s, EpisodeStatus& st) const n
 inline bool Judge::view(int k, int lost, EpisodeStatus& st) const noexcept {
   if (lost < 0) return false;
   st = {Outcome::left_image, k, lost, -1};
+  return true;
+}
+
+inline bool Judge::features(int k, int lost, EpisodeStatus& st) const noexcept {
+  if (lost < 0) return false;
+  st = {Outcome::lost_feature, k, -1, -1, lost};
   return true;
 }
 

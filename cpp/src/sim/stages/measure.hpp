@@ -24,6 +24,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace ibvs::sim::stages {
 
@@ -65,6 +66,8 @@ class Measure {
   }
   const Points& projected() const noexcept { return projected_; }  ///< the last capture's true projections
   auto true_depths(int s) const noexcept { return ring_depth_.row(s); }  ///< 1 x N true depths in slot s
+  /// camera <- world of the capture in slot s (the true pose of the frame it holds)
+  const Pose& camera_from_world(int s) const noexcept { return ring_pose_[static_cast<std::size_t>(s)]; }
   const Points& uv() const noexcept { return uv_; }  ///< the last view: 2 x N normalised points
   /// teach()'s measurement of the goal (measurement units).
   const Points& goal_measured() const noexcept { return goal_; }
@@ -80,6 +83,7 @@ class Measure {
   Points projected_;       // 2 x N true projections of the last capture
   Points measured_;        // 2 x N(L+1) ring of measurements
   RowMatrix ring_depth_;   // (L+1) x N ring of true depths
+  std::vector<Pose> ring_pose_;  // L+1 camera <- world poses of the captures
   Points uv_;              // 2 x N the controller's points
   Points goal_;            // 2 x N the goal's measurement (teach)
 };
@@ -98,6 +102,7 @@ inline Measure::Measure(const CameraModel& camera, const Eigen::Matrix3Xd& world
   projected_.resize(2, n_);
   measured_.resize(2, static_cast<Eigen::Index>(n_) * slots_);
   ring_depth_.resize(slots_, n_);
+  ring_pose_.assign(static_cast<std::size_t>(slots_), Pose::Identity());
   uv_.resize(2, n_);
   goal_.setZero(2, n_);
 }
@@ -143,6 +148,10 @@ inline Sighting Measure::capture(int k, const Pose& T_wc, const Eigen::Matrix3d&
   Sighting s;
   pc_.noalias() = Rcw * world_points_;
   pc_.colwise() += tcw;
+  Pose& T_cw = ring_pose_[static_cast<std::size_t>(slot(k))];
+  T_cw.setIdentity();
+  T_cw.topLeftCorner<3, 3>() = Rcw;
+  T_cw.topRightCorner<3, 1>() = tcw;
   for (int i = 0; i < n_ && s.behind < 0; ++i)
     if (!(pc_(2, i) >= min_depth_)) s.behind = i;
   if (s.behind >= 0) return s;  // no projection through the camera centre

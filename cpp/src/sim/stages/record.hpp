@@ -14,8 +14,8 @@
 
 namespace ibvs::sim::stages {
 
-/// K frames of n points and m error rows, no robot (q, qdot: 0 x 6).
-inline void allocate(History& h, Eigen::Index K, Eigen::Index n, Eigen::Index m) {
+/// K frames of n points, m error rows and s feature-block measurement values, no robot (q, qdot: 0 x 6).
+inline void allocate(History& h, Eigen::Index K, Eigen::Index n, Eigen::Index m, Eigen::Index s = 0) {
   h.time.resize(K);
   h.pose.resize(K, 16);
   h.twist.resize(K, 6);
@@ -25,6 +25,7 @@ inline void allocate(History& h, Eigen::Index K, Eigen::Index n, Eigen::Index m)
   h.measured.resize(K, 2 * n);
   h.projected.resize(K, 2 * n);
   h.error.resize(K, m);
+  h.measurements.resize(K, s);
   h.error_norm.resize(K);
   h.sigma_min.resize(K);
   h.q.resize(0, 6);
@@ -51,6 +52,7 @@ inline void open_frame(History& h, int k, double t, const Pose& T_wc, const Join
   h.measured.row(k).setConstant(nan);
   h.projected.row(k).setConstant(nan);
   h.error.row(k).setConstant(nan);
+  h.measurements.row(k).setConstant(nan);
   h.error_norm(k) = h.sigma_min(k) = nan;
   if (q) {
     h.q.row(k) = q->transpose();
@@ -80,6 +82,11 @@ inline void record_view(History& h, int k, const Points& uv, const Eigen::Vector
     h.rtheta(k, 2 * i + 1) = rt(1);
     h.depth(k, i) = z(i);
   }
+}
+
+/// The feature blocks' measurements the controller is given (S).
+inline void record_measurements(History& h, int k, const Eigen::VectorXd& m) noexcept {
+  h.measurements.row(k) = m.transpose();
 }
 
 /// The control stage's output: error, its norm, sigma_min, the commanded twist.

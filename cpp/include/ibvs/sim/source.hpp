@@ -1,0 +1,119 @@
+// Feature sources: how the simulator measures the feature blocks of a Task
+// (feature.hpp, task.hpp) on its target. A Target carries one source per
+// feature block of the servo's Task, in the Task's block order; each frame the
+// episode hands every source the same SourceFrame and the source writes its
+// block's measurement (the doubles its Feature kind documents), which the
+// servo then evaluates. The image points of the Task (its Layout) need no
+// source: they are the target's points, measured as before.
+//
+// What a source is given (SourceFrame) separates the image from what the
+// depth mode knows, as for points:
+//   * cMo: the true pose (camera <- target) of the frame the controller sees
+//     (the capture `latency` frames ago), for the image part of geometry that
+//     is not made of the target's points (a 3-D circle, a polygon, a pose):
+//     project it with its Feature kind's projection function;
+//   * uv: the controller's points (2 x N normalised; the sensor's measurement
+//     with its noise, distortion and latency), for the image part of features
+//     made of the target's points (a line through points i and j);
+//   * depth_pose: camera <- target as the episode's depth mode knows it, for
+//     the depth inputs (a plane, a depth, a pose):
+//       exact      the true cMo,
+//       desired    the goal's cMo (constant, as the desired depths z*),
+//       pose       ibvs::PlanarPose's estimate from the controller's points,
+//       estimated  the rigid fit (Kabsch) of the target's points onto the
+//                  points the depth estimate places in the camera frame,
+//                  z_i (u_i, v_i, 1) (needs 3 non-collinear target points);
+//     its translation times depth_scale (every depth of the scene scaled about
+//     the camera centre, as the points' depths are), except for estimated;
+//   * depth: the depths the depth mode gave the points (N), for per-point
+//     depth inputs (a segment's endpoint depths).
+// At the goal (frame -1, teach by showing) cMo = depth_pose = the goal's true
+// pose, uv and depth the desired points and depths.
+//
+// A source's measure() is noexcept and allocation-free (called every frame);
+// returning false, or a measurement its block's Feature::check refuses (a
+// plane seen edge-on...), ends the episode as lost_feature with
+// EpisodeStatus::feature = the block's index (at the goal: the run throws).
+// Whether the feature is in view is judged on the target's points (left_image,
+// behind_camera): give the target points on the geometry (e.g. on a circle's
+// rim) for that check.
+//
+// Adding a kind (docs/simulator.md, "Feature sources"): derive from
+// FeatureSource, say which Feature it feeds (fits), check its indices against
+// the target in validate(), and write measure() with the kind's projection
+// function; LineSource below is the model.
+#pragma once
+
+#include "ibvs/feature.hpp"
+#include "ibvs/layout.hpp"
+#include "ibvs/se3.hpp"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+
+namespace ibvs::sim {
+
+/// One frame as a feature source sees it (see above). Pointers valid during measure() only.
+struct SourceFrame {
+  int frame = 0;                                ///< -1: the goal, then 0, 1, ...
+  Pose cMo = Pose::Identity();                  ///< true camera <- target of the frame the controller sees
+  Pose depth_pose = Pose::Identity();           ///< camera <- target as the depth mode knows it (NaN: unknown)
+  const Eigen::Matrix3Xd* points = nullptr;     ///< 3 x N target points, target frame
+  const Points* uv = nullptr;                   ///< 2 x N the controller's points, normalised
+  const Eigen::VectorXd* depth = nullptr;       ///< N depths the depth mode gave them, metres
+};
+
+class FeatureSource {
+ public:
+  virtual ~FeatureSource();
+  virtual std::unique_ptr<FeatureSource> clone() const = 0;
+  /// Its kind and parameters, e.g. "line(0, 1)".
+  virtual std::string describe() const = 0;
+  /// Doubles in one measurement (its Feature's size()).
+  virtual int size() const noexcept = 0;
+  /// Whether it can feed the Task's block `f` (default: the same measurement size).
+  virtual bool fits(const Feature& f) const noexcept { return f.size() == size(); }
+  /// Throws std::invalid_argument "ibvs: <name>: ..." when it does not fit the target's
+  /// points (3 x N, target frame): an index out of range, a degenerate geometry.
+  virtual void validate(const Eigen::Matrix3Xd& points, const std::string& name) const;
+  /// The block's measurement (size() doubles) into m; false = it cannot be measured here.
+  /// noexcept, allocation-free.
+  virtual bool measure(const SourceFrame& frame, double* m) const noexcept = 0;
+
+ protected:
+  FeatureSource() = default;
+  FeatureSource(const FeatureSource&) = default;
+  FeatureSource& operator=(const FeatureSource&) = default;
+};
+
+/// The plane {X : n . X = d} of the target frame seen from pose cMo (camera <- target), as
+/// 1/Z = A x + B y + C of the camera's normalised coordinates: (A, B, C) = R n / (d + (R n) . t).
+/// False (plane untouched) when the plane passes through the camera centre or a value is not finite.
+bool plane_in_camera(const Pose& cMo, const Eigen::Vector3d& n, double d, double plane[3]) noexcept;
+
+/// An image line (LineFeature) through target points i and j: (rho, theta) from the
+/// controller's points uv(i), uv(j) (LineFeature::measure), and the plane (A, B, C) that
+/// holds the 3-D line from the depth pose: the target's z = 0 plane (k < 0: both points in
+/// it), or the plane through points i, j and k (a non-planar target). Lost when the two
+/// image points coincide or the plane passes through the camera centre.
+class LineSource final : public FeatureSource {
+ public:
+  LineSource(int i, int j, int k = -1);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<LineSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return 5; }
+  bool fits(const Feature& f) const noexcept override;
+  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+
+  int i() const noexcept { return i_; }
+  int j() const noexcept { return j_; }
+  int k() const noexcept { return k_; }  ///< -1: the target's z = 0 plane
+
+ private:
+  int i_, j_, k_;
+};
+
+}  // namespace ibvs::sim
