@@ -134,7 +134,7 @@ std::shared_ptr<ServoOutput> PyServo::update(py::handle uv_obj, py::handle depth
   const Eigen::Index n = servo.layout().n_points();
   depths(depth_obj, "depth", n, z);
   if (zd_obj.is_none()) {
-    if (servo.options().jacobian != InteractionMatrix::current)
+    if (servo.options().jacobian != InteractionMatrix::current && n > 0)  // a task of feature blocks has no depths
       throw py::value_error(std::string("depth_desired is required when jacobian='") +
                             interaction_name(servo.options().jacobian) + "'");
     zd = z;

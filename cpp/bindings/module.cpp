@@ -13,6 +13,7 @@ void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
 void bind_task(py::module_& m);         // bind_task.cpp
 void bind_segment_ellipse(py::module_& m);  // bind_segment_ellipse.cpp
+void bind_pose(py::module_& m);         // bind_pose.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
@@ -25,4 +26,5 @@ PYBIND11_MODULE(_core, m) {
   bind_sim(m);
   bind_partitioned(m);
   bind_robot(m);
+  bind_pose(m);
 }

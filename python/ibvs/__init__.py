@@ -46,6 +46,8 @@ from ._core import (
     singular_values,
     wrap_angle,
 )
+# 3-D (PBVS), 2.5-D and user-defined feature blocks
+from ._core import FunctionFeature, PbvsFeature, Point25DFeature, theta_u, theta_u_interaction
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
 from ._core import EllipseFeature, SegmentFeature  # feature blocks of a Task: the segment and the ellipse
 
@@ -81,6 +83,7 @@ __all__ = [
     "singular_values",
     "wrap_angle",
 ]
+__all__ += ["FunctionFeature", "PbvsFeature", "Point25DFeature", "theta_u", "theta_u_interaction"]
 __all__ += ["EllipseFeature", "SegmentFeature"]
 
 

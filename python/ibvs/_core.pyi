@@ -862,3 +862,71 @@ class sim:
         sensor: sim.Sensor | None = None,
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""
+
+# ---- 3-D (PBVS), 2.5-D and user-defined feature blocks (features/pose.hpp, bind_pose.cpp) ----
+
+def theta_u(R: _ArrayLike) -> _FloatArray:
+    """The rotation vector theta u (3,) of a rotation matrix, theta in [0, pi] (at pi, the axis' sign
+    with its largest component positive)."""
+
+def theta_u_interaction(tu: _ArrayLike) -> _FloatArray:
+    """L_tu (3, 3): d(theta u)/dt = L_tu w for theta u of c*Rc and the camera's angular velocity w:
+    I + (theta/2)[u]x + (1 - sinc(theta)/sinc^2(theta/2))[u]x^2 (Malis et al. 1999; ViSP cdRc)."""
+
+class PbvsFeature(Feature):
+    """Position-based visual servoing: (translation, theta u), 6 rows.
+
+    target="desired_camera": s = (c*t_c, theta u), the current camera's centre in the desired
+    camera's frame (goal 0), L = [c*Rc 0; 0 L_tu]: the camera centre moves on a straight line.
+    target="object": s = (c t_o, theta u), the object origin in the camera frame (goal c*t_o),
+    L = [-I [c t_o]x; 0 L_tu]: the object origin's image moves on a straight line.
+    theta u is that of c*Rc (the current camera's orientation in the desired one), goal 0
+    (Chaumette & Hutchinson, IEEE RAM 2006, Sec. IV; ViSP's vpFeatureTranslation cdMc / cMo and
+    vpFeatureThetaU cdRc). Measurement (6): t (3, metres), theta u (3, radians); measure(pose,
+    pose_desired) builds it from camera <- object poses (e.g. ibvs.PlanarPose's). theta u of angle
+    in (pi, 2 pi] is used in its principal form; beyond 2 pi, refused.
+    """
+
+    def __init__(self, target: str = "desired_camera") -> None: ...
+    @property
+    def target(self) -> str:
+        """'desired_camera' or 'object'."""
+    @staticmethod
+    def measure(pose: _ArrayLike, pose_desired: _ArrayLike, target: str = "desired_camera") -> _FloatArray:
+        """The measurement (6,) from the current and desired camera <- object poses (4x4)."""
+
+class Point25DFeature(Feature):
+    """2.5-D visual servoing (Malis, Chaumette & Boudet, IEEE T-RA 1999): 6 rows.
+
+    s = (x, y, log Z, theta u) of a reference point: its normalised image point, its depth and
+    theta u of c*Rc; the error is (x - x*, y - y*, log(Z/Z*), theta u). L: the point's rows (paper
+    eq. 3), [0, 0, -1/Z, -y, x, 0] for log Z, [0 L_tu] for theta u; the reference point's image
+    moves on a straight line. Measurement (6): x, y, Z (> 0, metres), theta u (3); measure(pose,
+    pose_desired, point) builds it from camera <- object poses and the point in the object frame.
+    """
+
+    def __init__(self) -> None: ...
+    @staticmethod
+    def measure(
+        pose: _ArrayLike, pose_desired: _ArrayLike, point: _ArrayLike = (0.0, 0.0, 0.0)
+    ) -> _FloatArray:
+        """The measurement (6,) of `point` (object frame) from the current and desired camera <- object
+        poses."""
+
+class FunctionFeature(Feature):
+    """A feature block of your own: fn(measurement) -> (s, L).
+
+    rows: the block's rows (1 to 64); size: values in one measurement; fn receives the measurement
+    (a (size,) array) and returns s (rows,) and L (rows, 6), the interaction matrix (ds/dt = L v for
+    the camera twist v). It must be a pure function of the measurement. A measurement for which fn
+    raises or returns a non-finite value is refused (ValueError with fn's message, from validate()
+    and update() alike). Stack it with any other block in a Task.
+    """
+
+    def __init__(self, rows: int, size: int, fn: Any, name: str = "function") -> None: ...
+    @property
+    def fn(self) -> Any:
+        """The callable."""
+    @property
+    def name(self) -> str:
+        """The block's name in describe() and repr (default "function")."""

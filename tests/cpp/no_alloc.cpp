@@ -7,6 +7,8 @@
 #include "check.hpp"
 
 #include "ibvs/ibvs.hpp"
+#include "ibvs/features/function.hpp"
+#include "ibvs/features/pose.hpp"
 #include "ibvs/partitioned.hpp"
 #include "ibvs/robot_mapping.hpp"
 #include "sim_cases.hpp"
@@ -326,11 +328,45 @@ void estimators_allocate_nothing() {
   CHECK(ok && restarts == 4 && est.depth().allFinite() && z.allFinite());
 }
 
+// A Task of PBVS (both targets), 2.5-D and a user's FunctionFeature blocks beside a point:
+// Servo::update (the blocks' check, value, error, interaction) allocates nothing, with every
+// interaction-matrix mode, damped or not, and on the invalid-input path.
+void pose_blocks_allocate_nothing() {
+  const auto point = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
+    s[0] = m[0];
+    s[1] = m[1];
+    L = cartesian_jacobian(m[0], m[1], m[2]);
+    return m[2] > 0.0;
+  };
+  Task task(Layout::cartesian(1));
+  task.add(PbvsFeature(PbvsTarget::desired_camera)).add(PbvsFeature(PbvsTarget::object), 0.5);
+  task.add(Point25DFeature()).add(FunctionFeature(2, 3, point));
+  for (double lambda : {0.0, 0.01}) {
+    for (auto mode : {InteractionMatrix::current, InteractionMatrix::desired, InteractionMatrix::mean}) {
+      ServoOptions o;
+      o.damping = lambda;
+      o.jacobian = mode;
+      Servo servo(task, o);
+      ServoInput in(task);
+      ServoOutput out(task);
+      in.uv << 0.1, -0.05;
+      in.uv_desired << 0.0, 0.02;
+      in.measurements << 0.1, 0.2, 0.3, 0.5, -1.0, 2.5, 0.1, 0.2, 1.5, 0.1, 0.2, 3.0, 0.1, -0.1, 1.2, 0.3, 0.2, 1e-9,
+          0.1, 0.1, 1.0;
+      in.measurements_desired << 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 1;
+      const long before = news.load();
+      Status st = Status::ok;
+      for (int k = 0; k < 3; ++k) st = servo.update(in, out);
+      in.measurements(20) = -1.0;  // the function refuses it: the invalid-input path
+      const Status bad = servo.update(in, out);
+      const long during = news.load() - before;
+      ibvs_test::report(during == 0, "no allocation in update (pose blocks)", __FILE__, __LINE__,
+                        task.describe() + ": " + std::to_string(during));
+      CHECK(st != Status::invalid_input && bad == Status::invalid_input);
 // Task blocks of the segment and the ellipse (with a point, weights, a DOF left out): every
 // route of update() (damping 0 and 0.01, the current, desired and mean Jacobians), the
 // unoriented segment's align() taking the reverse, and a refused measurement.
 void segment_ellipse_allocate_nothing() {
-  Task task(Layout::cartesian(1));
   task.add(SegmentFeature()).add(SegmentFeature(false), 2.0).add(EllipseFeature(), 10.0);
   for (bool all : {true, false}) {
     if (!all) task.set_dof({true, true, true, true, true, false});
@@ -391,6 +427,7 @@ void run_tests() {
   sensor_episode_allocates_nothing();
   feature_episode_allocates_nothing();
   pixels_allocate_nothing();
+  pose_blocks_allocate_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

@@ -22,7 +22,11 @@
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/line.hpp"
 #include "ibvs/features/segment.hpp"
+#include "ibvs/features/function.hpp"
+#include "ibvs/features/line.hpp"
+#include "ibvs/features/pose.hpp"
 
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -280,11 +284,59 @@ void ellipse_measurement(Bytes& b, double* m) {
   }, m);
 }
 
+// A camera <- object pose: mostly a rigid motion (any angle, exactly pi about z at times), sometimes
+// not one (measure() must then throw).
+Pose fuzz_rigid_pose(Bytes& b) {
+  Twist xi;
+  for (int i = 0; i < 6; ++i) xi(i) = b.byte() < 200 ? (b.byte() - 127.5) / 30.0 : b.real();
+  Pose T = xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(xi) : Pose::Identity();
+  if (b.byte() > 240) T.topLeftCorner<3, 3>() = rotation_of(pi * Eigen::Vector3d::UnitZ());  // theta u at pi
+  if (b.byte() > 240) T(b.small(0, 2), b.small(0, 3)) = b.real();
+  return T;
+}
+
+// PBVS (Target 0: desired camera, 1: object) and 2.5-D (2) measurements: measure() of two random poses, or
+// hostile entries; theta_u's invariants on the way (angle <= pi, L_tu finite up to 2 pi).
+template <int Target>
+void pose_measurement(Bytes& b, double* m) {
+  const Pose cMo = fuzz_rigid_pose(b), cdMo = fuzz_rigid_pose(b);
+  try {
+    if (b.byte() < 60) throw std::invalid_argument("hostile");
+    const Eigen::Vector3d P(b.coordinate(), b.coordinate(), b.coordinate());
+    const std::array<double, 6> v =
+        Target == 2 ? Point25DFeature::measure(cMo, cdMo, P)
+                    : PbvsFeature::measure(cMo, cdMo, Target == 0 ? PbvsTarget::desired_camera : PbvsTarget::object);
+    std::copy(v.begin(), v.end(), m);
+    CHECK(Eigen::Map<const Eigen::Vector3d>(m + 3).norm() <= pi + 1e-12);
+  } catch (const std::invalid_argument&) {
+    for (int i = 0; i < 6; ++i) m[i] = b.byte() < 128 ? b.coordinate() : b.real();
+  }
+  const Eigen::Map<const Eigen::Vector3d> tu(m + 3);
+  if (tu.allFinite() && tu.norm() <= 2 * pi) CHECK(theta_u_interaction(tu).allFinite());
+}
+
+// A user's block: s = 1 / m (infinite at 0, huge near it: refused by check()), and 1 itself refused.
+constexpr auto fuzz_inverse = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
+  s[0] = 1.0 / m[0];
+  L.setZero();
+  L(0, 2) = -s[0] * s[0];
+  return m[0] != 1.0;
+};
+
 const FuzzKind fuzz_kinds[] = {
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
     {[](Bytes& b) -> std::unique_ptr<Feature> { return std::make_unique<SegmentFeature>(b.byte() < 160); },
      segment_measurement},
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<EllipseFeature>(); }, ellipse_measurement},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<PbvsFeature>(PbvsTarget::desired_camera); },
+     pose_measurement<0>},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<PbvsFeature>(PbvsTarget::object); },
+     pose_measurement<1>},
+    {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<Point25DFeature>(); }, pose_measurement<2>},
+    {[](Bytes&) -> std::unique_ptr<Feature> {
+       return std::make_unique<FunctionFeature<decltype(fuzz_inverse)>>(1, 1, fuzz_inverse);
+     },
+     [](Bytes& b, double* m) { m[0] = b.byte() < 200 ? b.coordinate() : b.real(); }},
 };
 
 void fuzz_task(Bytes& b) {
