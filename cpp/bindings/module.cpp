@@ -14,12 +14,14 @@ void bind_robot(py::module_& m);        // bind_robot.cpp
 void bind_task(py::module_& m);         // bind_task.cpp
 void bind_segment_ellipse(py::module_& m);  // bind_segment_ellipse.cpp
 void bind_pose(py::module_& m);         // bind_pose.cpp
+void bind_moments(py::module_& m);      // bind_moments.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
   m.attr("__version__") = IBVS_VERSION;
   bind_task(m);  // first: Servo(task) names ibvs.Task in its signature
   bind_segment_ellipse(m);  // after bind_task: ibvs.Feature, their base
+  bind_moments(m);  // a Feature: after bind_task
   bind_core(m);
   bind_camera(m);
   bind_estimators(m);

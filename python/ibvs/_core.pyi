@@ -365,6 +365,53 @@ class LineFeature(Feature):
     def measure(p1: _ArrayLike, p2: _ArrayLike, plane: _ArrayLike) -> _FloatArray:
         """The measurement (rho >= 0, theta, A, B, C) of the line through two distinct image points."""
 
+class MomentsFeature(Feature):
+    """Image moments of a planar object.
+
+    Tahri & Chaumette (IEEE T-RO 2005): rows xn, yn, an, r1, r2 (invariants "p": px, py, or "s":
+    sx, sy) and alpha ("second_order": modulo pi; "third_order": over the full turn). source
+    "region" (integrals) or "points" (sums). Measurement (20): m00..m04, a*, Z*, A, B, C.
+    """
+
+    def __init__(
+        self,
+        source: str = "region",
+        invariants: str = "p",
+        alpha: str = "third_order",
+        rows: Sequence[str] | None = None,
+    ) -> None: ...
+    @property
+    def source(self) -> str:
+        """"region" (moments are integrals over the object) or "points" (sums over discrete points)."""
+    @property
+    def invariants(self) -> str:
+        """The pair of invariants for wx, wy: "p" (px, py) or "s" (sx, sy)."""
+    @property
+    def alpha(self) -> str:
+        """The orientation: "second_order" (modulo pi) or "third_order" (over the full turn)."""
+    @property
+    def row_names(self) -> List[str]:
+        """The selected rows, in order."""
+    @staticmethod
+    def of_points(xy: _ArrayLike) -> _FloatArray:
+        """Moments m00..m04 (15,) of discrete image points (N, 2): sums of x^i y^j."""
+    @staticmethod
+    def of_polygon(xy: _ArrayLike) -> _FloatArray:
+        """Moments m00..m04 (15,) of the region inside a simple polygon (N, 2), either orientation."""
+    @staticmethod
+    def measure(
+        moments: _ArrayLike, plane: _ArrayLike, source: str = "region", area_desired: float = 0.0,
+        depth_desired: float = 1.0,
+    ) -> _FloatArray:
+        """The measurement (20,): moments, a*, Z*, plane. area_desired=0: the object's own area."""
+    @staticmethod
+    def project(
+        points: _ArrayLike, source: str = "region", area_desired: float = 0.0, depth_desired: float = 1.0
+    ) -> _FloatArray:
+        """The measurement (20,) of a 3-D planar polygon or point set (N, 3) in the camera frame."""
+    @staticmethod
+    def area(measurement: _ArrayLike, source: str = "region") -> float:
+        """The object's area a: m00 (region) or mu20 + mu02 (points)."""
 class SegmentFeature(Feature):
     """An image segment (ViSP's vpFeatureSegment).
 
@@ -378,17 +425,13 @@ class SegmentFeature(Feature):
     (-pi, pi], at most pi/2). Interaction matrix: the end points' point rows composed (equal to
     ViSP's closed form). Refused: a segment shorter than 1e-9 (zero length), depths outside
     [1e-6, 1e6] m, a centre beyond 10 (normalised), non-finite values.
-    """
 
     def __init__(self, normalized: bool = True) -> None: ...
-    @property
     def normalized(self) -> bool:
         """True: features (xc/l, yc/l, 1/l, alpha); False: (xc, yc, l, alpha)."""
-    @staticmethod
     def measure(p1: _ArrayLike, p2: _ArrayLike, Z1: float, Z2: float) -> _FloatArray:
         """The measurement (xc, yc, l, alpha, Z1, Z2) of the segment from image point p1 at depth Z1
         to p2 at depth Z2 (normalised coordinates, metres)."""
-    @staticmethod
     def project(P1: _ArrayLike, P2: _ArrayLike) -> _FloatArray:
         """The measurement of the segment between two 3-D points of the camera frame (in front of
         the camera)."""
@@ -405,17 +448,13 @@ class EllipseFeature(Feature):
     (n20 n02 - n11^2 <= 0), a plane seen edge-on or behind the camera over the ellipse, a centroid
     beyond 10 (normalised), non-finite values. A circle seen fronto-parallel and centred is a
     singular configuration (the five rows have rank 3).
-    """
 
     def __init__(self) -> None: ...
-    @staticmethod
     def project_circle(centre: _ArrayLike, normal: _ArrayLike, radius: float) -> _FloatArray:
         """The measurement of the image of a 3-D circle (camera frame, metres): its centre, the
         normal of its plane (any length, either sign) and its radius."""
-    @staticmethod
     def measure_moments(
         moments: Union[dict[str, float], _ArrayLike], plane: _ArrayLike, camera: CameraModel | None = None
-    ) -> _FloatArray:
         """The measurement of a planar blob from its image moments: cv2.moments' dict (or the 6
         values m00, m10, m01, mu20, mu11, mu02), in pixels of `camera` (without lens distortion:
         undistort first) or, camera None, in normalised coordinates; plane (A, B, C) of

@@ -416,6 +416,35 @@ void counter_sees_allocations() {
   ibvs_test::report(news.load() - before >= 1, "operator new counted", __FILE__, __LINE__, std::to_string(v.size()));
 }
 
+// A Servo of a moments task (features/moments.hpp): update() of accepted and refused measurements,
+// and MomentsFeature::project (the simulator's per-frame measurement).
+void moments_allocate_nothing() {
+  Eigen::Matrix3Xd P(3, 5);
+  P << 0.1, 0.02, -0.09, -0.05, 0.08, 0.0, 0.1, 0.04, -0.08, -0.06, 0, 0, 0, 0, 0;
+  P.row(2) = (1.0 + 0.3 * P.row(0).array() + 0.2 * P.row(1).array()).matrix();  // a tilted plane
+  for (auto src : {MomentsFeature::Source::region, MomentsFeature::Source::points}) {
+    Task task;
+    task.add(MomentsFeature(src));
+    Servo servo(task);
+    ServoInput in(task);
+    ServoOutput out(task);
+    const auto md = MomentsFeature::project(P, src, 0.0, 1.0);
+    in.measurements_desired = Eigen::Map<const Eigen::VectorXd>(md.data(), 20);
+    in.measurements = in.measurements_desired;
+    const Eigen::Matrix3Xd P2 = 1.1 * P;  // farther away
+    const long before = news.load();
+    const auto m = MomentsFeature::project(P2, src, md[15], 1.0);
+    std::copy(m.begin(), m.end(), in.measurements.data());
+    const Status a = servo.update(in, out);
+    in.measurements(0) = -1.0;  // refused: no allocation either
+    const Status c = servo.update(in, out);
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in Servo::update of a moments task / project", __FILE__, __LINE__,
+                      std::to_string(during));
+    CHECK(a != Status::invalid_input && c == Status::invalid_input);
+  }
+}
+
 void run_tests() {
   counter_sees_allocations();
   segment_ellipse_allocate_nothing();
@@ -428,6 +457,7 @@ void run_tests() {
   feature_episode_allocates_nothing();
   pixels_allocate_nothing();
   pose_blocks_allocate_nothing();
+  moments_allocate_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

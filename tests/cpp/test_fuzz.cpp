@@ -1,6 +1,6 @@
 // Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
 // validate, update), PartitionedServo, damped_pinv / singular_values and se3_exp,
-// the simulator's feature sources (LineSource on a target, measure from any pose;
+// MomentsFeature tasks, the simulator's feature sources (LineSource on a target, measure from any pose;
 // short episodes of a line task): arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
@@ -455,15 +455,55 @@ void fuzz_sources(Bytes& b) {
   }
 }
 
+// MomentsFeature (features/moments.hpp): a measurement from a projected 3-D object or from raw
+// doubles, any options; validate() throws iff update() refuses, accepted ones are finite.
+void fuzz_moments(Bytes& b) {
+  using MF = MomentsFeature;
+  const MF::Source src = b.byte() & 1 ? MF::Source::points : MF::Source::region;
+  const unsigned rows = 1u + b.byte() % 63u;
+  const MF f(src, b.byte() & 1 ? MF::Invariants::s : MF::Invariants::p,
+             b.byte() & 1 ? MF::Alpha::second_order : MF::Alpha::third_order, rows);
+  Task task;
+  task.add(f);
+  Servo servo(task);
+  ServoInput in(task);
+  ServoOutput out(task);
+  for (Eigen::VectorXd* m : {&in.measurements, &in.measurements_desired}) {
+    if (b.byte() < 160) {
+      Eigen::Matrix3Xd P(3, b.small(3, 7));
+      for (Eigen::Index k = 0; k < P.cols(); ++k) P.col(k) << b.coordinate(), b.coordinate(), b.depth();
+      try {
+        const auto v = MF::project(P, src, b.byte() < 128 ? 0.0 : b.real(), b.depth());
+        *m = Eigen::Map<const Eigen::VectorXd>(v.data(), 20);
+      } catch (const std::invalid_argument&) {
+        return;
+      }
+    } else {
+      for (Eigen::Index i = 0; i < 20; ++i) (*m)(i) = b.real();
+    }
+  }
+  bool valid = true;
+  try {
+    servo.validate(in);
+  } catch (const std::invalid_argument&) {
+    valid = false;
+  }
+  const Status st = servo.update(in, out);
+  ibvs_test::report(valid == (st != Status::invalid_input), "moments: validate() throws iff update() refuses",
+                    __FILE__, __LINE__, f.describe());
+  check_output(out, st, true, "Servo::update (moments)");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 5) {
+  switch (b.byte() % 6) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
     case 2: fuzz_task(b); break;
     case 3: fuzz_pinv_exp(b); break;
+    case 4: fuzz_moments(b); break;
     default: fuzz_sources(b); break;
   }
   return 0;

@@ -77,6 +77,8 @@ SHRINK = {
          "ibvs sweep --scenario docs/scenario_arm.toml --out arm.csv --episodes 2 --jobs 1\n")],
     ("docs/benchmarks.md", "--sections components --layout cartesian,stacked"): [("50000", "300"), ("20000", "300")],
     # The full run (2 min on 2 cores) rewrites the page's tables; here a few episodes, written into the test's folder.
+    ("docs/moments.md", "python docs/scripts/moments_starts.py"): [
+        ("python docs/scripts/moments_starts.py ", "python docs/scripts/moments_starts.py --shapes 1 ")],
     ("docs/hand-eye.md", "python docs/scripts/hand_eye.py"): [
         ("python docs/scripts/hand_eye.py\n", "python docs/scripts/hand_eye.py --quick --jobs 1 --docs .\n")],
 }
@@ -142,6 +144,12 @@ PRINTS = {
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
     ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
     ("docs/features.md", "the same segment, from its other end"): ["error against its reverse: 0.0"],
+    ("docs/moments.md", "def turn(feature, degrees"): [
+        "| p, third_order | 0.0 deg, 0.0 mm from the goal, z range 0.0 mm | 0.0 deg, 0.0 mm from the goal, z range 0.0 mm",
+        "| 180.0 deg, 0.0 mm from the goal"],
+    ("docs/moments.md", "docs/scripts/moments_starts.py"): ["| radius up to (m) | interaction matrix | region, p |"],
+    ("docs/moments.md", "kite (an axis of symmetry)"): [
+        "| kite (an axis of symmetry) | 5, ", "| rectangle (central symmetry) | 4, 0 | 6, "],
 }
 
 

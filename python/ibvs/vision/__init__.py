@@ -13,7 +13,7 @@ column c and row r is (u, v) = (c, r). A camera for images has a pixel sensor wh
 [0, width] x [0, height] with integer width and height.
 
 Modules: images (cameras with images, image checks), renderer (Renderer), track (Track), dots
-(DotTracker), tag (TagDetector), sensor (ImageSensor), video (draw_points, write_video); this
+(DotTracker), tag (TagDetector), moments (image_moments: a binary image's moments), sensor (ImageSensor), video (draw_points, write_video); this
 package re-exports their public names. Rendering is described in ibvs.vision.renderer.
 """
 
@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from .dots import DotTracker
 from .images import check_image, image_camera
+from .moments import image_moments
 from .renderer import KINDS, Renderer
 from .sensor import ImageSensor
 from .tag import TagDetector
@@ -37,5 +38,6 @@ __all__ = [
     "check_image",
     "draw_points",
     "image_camera",
+    "image_moments",
     "write_video",
 ]
