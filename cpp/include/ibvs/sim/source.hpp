@@ -26,7 +26,10 @@
 //     its translation times depth_scale (every depth of the scene scaled about
 //     the camera centre, as the points' depths are), except for estimated;
 //   * depth: the depths the depth mode gave the points (N), for per-point
-//     depth inputs (a segment's endpoint depths).
+//     depth inputs (a segment's endpoint depths);
+//   * goal: the goal's true camera <- target pose c*Mo, for features whose
+//     measurement compares the current pose with the desired one (PBVS,
+//     2.5-D) or needs the goal's area and depth (moments).
 // At the goal (frame -1, teach by showing) cMo = depth_pose = the goal's true
 // pose, uv and depth the desired points and depths.
 //
