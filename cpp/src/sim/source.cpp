@@ -1,6 +1,7 @@
 #include "ibvs/sim/source.hpp"
 
 #include "ibvs/features/line.hpp"
+#include "ibvs/limits.hpp"
 
 #include <algorithm>
 #include <cmath>
