@@ -23,7 +23,6 @@
 #include "ibvs/features/line.hpp"
 #include "ibvs/features/segment.hpp"
 #include "ibvs/features/function.hpp"
-#include "ibvs/features/line.hpp"
 #include "ibvs/features/pose.hpp"
 
 #include <array>
