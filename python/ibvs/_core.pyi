@@ -425,6 +425,7 @@ class SegmentFeature(Feature):
     (-pi, pi], at most pi/2). Interaction matrix: the end points' point rows composed (equal to
     ViSP's closed form). Refused: a segment shorter than 1e-9 (zero length), depths outside
     [1e-6, 1e6] m, a centre beyond 10 (normalised), non-finite values.
+    """
 
     def __init__(self, normalized: bool = True) -> None: ...
     def normalized(self) -> bool:
