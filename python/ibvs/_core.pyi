@@ -428,11 +428,14 @@ class SegmentFeature(Feature):
     """
 
     def __init__(self, normalized: bool = True) -> None: ...
+    @property
     def normalized(self) -> bool:
         """True: features (xc/l, yc/l, 1/l, alpha); False: (xc, yc, l, alpha)."""
+    @staticmethod
     def measure(p1: _ArrayLike, p2: _ArrayLike, Z1: float, Z2: float) -> _FloatArray:
         """The measurement (xc, yc, l, alpha, Z1, Z2) of the segment from image point p1 at depth Z1
         to p2 at depth Z2 (normalised coordinates, metres)."""
+    @staticmethod
     def project(P1: _ArrayLike, P2: _ArrayLike) -> _FloatArray:
         """The measurement of the segment between two 3-D points of the camera frame (in front of
         the camera)."""
@@ -449,13 +452,17 @@ class EllipseFeature(Feature):
     (n20 n02 - n11^2 <= 0), a plane seen edge-on or behind the camera over the ellipse, a centroid
     beyond 10 (normalised), non-finite values. A circle seen fronto-parallel and centred is a
     singular configuration (the five rows have rank 3).
+    """
 
     def __init__(self) -> None: ...
+    @staticmethod
     def project_circle(centre: _ArrayLike, normal: _ArrayLike, radius: float) -> _FloatArray:
         """The measurement of the image of a 3-D circle (camera frame, metres): its centre, the
         normal of its plane (any length, either sign) and its radius."""
+    @staticmethod
     def measure_moments(
         moments: Union[dict[str, float], _ArrayLike], plane: _ArrayLike, camera: CameraModel | None = None
+    ) -> _FloatArray:
         """The measurement of a planar blob from its image moments: cv2.moments' dict (or the 6
         values m00, m10, m01, mu20, mu11, mu02), in pixels of `camera` (without lens distortion:
         undistort first) or, camera None, in normalised coordinates; plane (A, B, C) of
