@@ -403,10 +403,15 @@ void pose_blocks_allocate_nothing() {
       ibvs_test::report(during == 0, "no allocation in update (pose blocks)", __FILE__, __LINE__,
                         task.describe() + ": " + std::to_string(during));
       CHECK(st != Status::invalid_input && bad == Status::invalid_input);
+    }
+  }
+}
+
 // Task blocks of the segment and the ellipse (with a point, weights, a DOF left out): every
 // route of update() (damping 0 and 0.01, the current, desired and mean Jacobians), the
 // unoriented segment's align() taking the reverse, and a refused measurement.
 void segment_ellipse_allocate_nothing() {
+  Task task(Layout::cartesian(1));
   task.add(SegmentFeature()).add(SegmentFeature(false), 2.0).add(EllipseFeature(), 10.0);
   for (bool all : {true, false}) {
     if (!all) task.set_dof({true, true, true, true, true, false});

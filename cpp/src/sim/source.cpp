@@ -117,6 +117,12 @@ bool goal_area_depth(const Eigen::Matrix3Xd& P, const Pose& cMo, MomentsFeature:
 /// Whether T is finite (a NaN depth pose: no estimate yet).
 bool known(const Pose& T) noexcept { return T.allFinite(); }
 
+/// A measurement of n values is answered only when every one is finite (e.g. not the moments of
+/// points beyond the overflow range, not a NaN depth).
+bool finite(const double* m, int n) noexcept {
+  return std::all_of(m, m + n, [](double v) { return std::isfinite(v); });
+}
+
 }  // namespace
 
 std::string MomentsSource::describe() const {
@@ -143,7 +149,7 @@ bool MomentsSource::measure(const SourceFrame& f, double* m) const noexcept {
                                                                  : MomentsFeature::of_points(*f.uv);
   const auto out = MomentsFeature::measure(mo, source_, a_desired, depth_desired, plane[0], plane[1], plane[2]);
   std::copy(out.begin(), out.end(), m);
-  return true;
+  return finite(m, MomentsFeature::measurement_size);
 }
 
 std::string PbvsSource::describe() const {
@@ -173,7 +179,7 @@ bool PbvsSource::measure(const SourceFrame& f, double* m) const noexcept {
     m[r] = t(r);
     m[3 + r] = tu(r);
   }
-  return true;
+  return finite(m, 6);
 }
 
 Point25DSource::Point25DSource(int i) : i_(i) {
@@ -198,7 +204,7 @@ bool Point25DSource::measure(const SourceFrame& f, double* m) const noexcept {
   m[1] = (*f.uv)(1, i_);
   m[2] = (*f.depth)(i_);
   for (int r = 0; r < 3; ++r) m[3 + r] = tu(r);
-  return true;
+  return finite(m, 6);
 }
 
 }  // namespace ibvs::sim
