@@ -368,6 +368,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = p.parse_args(argv)
     if not 2 <= args.rotations <= 181 or not 0 <= args.general <= 10000:
         p.error("--rotations must be in [2, 181] and --general in [0, 10000]")
+    root = Path(__file__).resolve().parents[3]
+    if args.docs and not (root / "mkdocs.yml").is_file():
+        p.error(f"--docs: {root} is not the ibvs repository (run from a source checkout)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -382,7 +385,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         w.writerows(asdict(r) for r in rows)
     targets = [out]
     if args.docs:
-        targets.append(Path(__file__).resolve().parents[3] / "docs")
+        targets.append(root / "docs")
     for d in targets:
         fig_dir = d / "figures"
         fig_dir.mkdir(parents=True, exist_ok=True)
