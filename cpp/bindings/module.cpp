@@ -12,9 +12,10 @@ void bind_sim(py::module_& m);   // bind_sim.cpp
 void bind_partitioned(py::module_& m);  // bind_partitioned.cpp
 void bind_robot(py::module_& m);        // bind_robot.cpp
 void bind_task(py::module_& m);         // bind_task.cpp
-void bind_moments(py::module_& m);      // bind_moments.cpp
 void bind_segment_ellipse(py::module_& m);  // bind_segment_ellipse.cpp
 void bind_pose(py::module_& m);         // bind_pose.cpp
+void bind_moments(py::module_& m);      // bind_moments.cpp
+void bind_sources(py::module_& m);      // bind_sources.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
@@ -29,4 +30,5 @@ PYBIND11_MODULE(_core, m) {
   bind_partitioned(m);
   bind_robot(m);
   bind_pose(m);
+  bind_sources(m);  // after bind_sim (FeatureSource) and bind_pose
 }

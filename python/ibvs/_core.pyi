@@ -948,6 +948,32 @@ class sim:
         def k(self) -> int | None:
             """The plane's third point, or None: the target's z = 0 plane."""
 
+    class MomentsSource(FeatureSource):
+        """Image moments (ibvs.MomentsFeature) of the target's points as one planar object: the
+        moments of the controller's points, the target's z = 0 plane from the depth mode's pose, the
+        goal's area a* and depth Z*."""
+
+        def __init__(self, source: str = "region") -> None: ...
+        @property
+        def source(self) -> str:
+            """'region' or 'points'."""
+
+    class PbvsSource(FeatureSource):
+        """PBVS (ibvs.PbvsFeature) on the pose the depth mode gives against the goal's true pose."""
+
+        def __init__(self, target: str = "desired_camera") -> None: ...
+        @property
+        def target(self) -> str:
+            """'desired_camera' or 'object'."""
+
+    class Point25DSource(FeatureSource):
+        """2.5-D (ibvs.Point25DFeature) with target point i as the reference point."""
+
+        def __init__(self, i: int = 0) -> None: ...
+        @property
+        def i(self) -> int:
+            """The reference point (a target point's index)."""
+
     class Target:
         """Points (N, 3) in the target frame, the target's world pose (4x4) and its feature sources."""
 

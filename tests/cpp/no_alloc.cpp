@@ -169,6 +169,46 @@ void feature_episode_allocates_nothing() {
   }
 }
 
+// Episodes of moments, PBVS and 2.5-D tasks (their simulator sources, every depth mode that moves
+// them) on an asymmetric planar quadrilateral: nothing allocated per frame.
+void pose_moments_episode_allocates_nothing() {
+  using namespace sim_cases;
+  Eigen::Matrix3Xd quad(3, 4);
+  quad << 0.30, -0.22, -0.27, 0.16, 0.18, 0.26, -0.20, -0.24, 0.0, 0.0, 0.0, 0.0;
+  Pose at = Pose::Identity();
+  at(2, 3) = 3.0;
+  for (int kind = 0; kind < 4; ++kind) {
+    for (DepthMode depth : {DepthMode::exact, DepthMode::pose, DepthMode::estimated}) {
+      EpisodeOptions o;
+      o.duration = 3.0;
+      o.noise = 1e-4;
+      o.latency = 1;
+      o.depth = depth;
+      o.depth_scale = 1.1;
+      Task task;
+      Target t(quad, at);
+      if (kind == 0) {
+        task.add(MomentsFeature());
+        t.add(sim::MomentsSource());
+      } else if (kind == 3) {
+        task.add(Point25DFeature());
+        t.add(sim::Point25DSource(0));
+      } else {
+        const PbvsTarget pt = kind == 1 ? PbvsTarget::desired_camera : PbvsTarget::object;
+        task.add(PbvsFeature(pt));
+        t.add(sim::PbvsSource(pt));
+      }
+      Episode e(Servo(task, ServoOptions{}), CameraModel::normalized(0.3), t, o);
+      const long before = news.load();
+      const EpisodeResult& r = e.run(general_motion(), Pose::Identity());
+      const long during = news.load() - before;
+      ibvs_test::report(during == 0, "no allocation in Episode::run of a moments / PBVS / 2.5-D task", __FILE__,
+                        __LINE__, task.feature(0).describe() + " " + to_string(depth) + ": " + std::to_string(during));
+      CHECK(r.history.frames > 10);
+    }
+  }
+}
+
 // An episode with a C++ sensor in place of the default (the measurement hook costs no allocation).
 class ShiftSensor final : public ibvs::sim::Sensor {
  public:
@@ -647,6 +687,7 @@ void run_tests() {
   robot_episode_allocates_nothing();
   sensor_episode_allocates_nothing();
   feature_episode_allocates_nothing();
+  pose_moments_episode_allocates_nothing();
   pixels_allocate_nothing();
   moments_allocate_nothing();
   bearings_allocate_nothing();

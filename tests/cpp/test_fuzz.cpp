@@ -682,6 +682,22 @@ void fuzz_sources(Bytes& b) {
   if (t.sources[0]->measure(f, m))
     CHECK(std::isfinite(m[0]) && std::isfinite(m[1]) && std::isfinite(m[2]) && std::isfinite(m[3]) &&
           std::isfinite(m[4]));
+  // The moments, PBVS and 2.5-D sources on the same frame, the goal from any pose: false or finite.
+  f.goal = pose(b.byte() < 128 ? xd : xi);
+  const MomentsSource moments_region(MomentsFeature::Source::region), moments_points(MomentsFeature::Source::points);
+  const PbvsSource to_camera(PbvsTarget::desired_camera), to_object(PbvsTarget::object);
+  const Point25DSource reference(0);
+  for (const FeatureSource* src : std::initializer_list<const FeatureSource*>{
+           &moments_region, &moments_points, &to_camera, &to_object, &reference}) {
+    try {
+      src->validate(t.points, "fuzz");
+    } catch (const std::invalid_argument&) {
+      continue;
+    }
+    double ms[20];
+    if (src->measure(f, ms))
+      for (int i = 0; i < src->size(); ++i) CHECK(std::isfinite(ms[i]));
+  }
   if (b.byte() < 224) return;  // an episode now and then (a few frames)
   Task task;
   task.add(LineFeature());

@@ -221,7 +221,7 @@ def test_run_an_example_arm(robot, capsys):
 def test_run_every_scheme_and_option_on_an_arm(capsys):
     """Every scheme, and the depth, noise, latency, gain, tolerance, angle-wrap and vision options, on the Panda
     (1 s episodes: what matters here is that the arm takes every option of `ibvs run`)."""
-    for scheme in SCHEMES:
+    for scheme in (s for s in SCHEMES if not s.startswith("moments")):  # moments: not on the square
         assert main(["run", "--world", "arm", "--scheme", scheme, "--duration", "1"]) in (0, 1)
         assert "status" in capsys.readouterr().out
     assert main(["run", "--world", "arm", "--robot", "ur5", "--scheme", "polar", "--duration", "1", "--depth", "estimated",

@@ -241,3 +241,42 @@ def test_line_sources_finite_or_refused(i, j, k, twist):
     ok = np.isfinite(h.error_norm)
     assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
     assert np.isfinite(h.twist).all()
+
+
+ARGUMENT = st.one_of(st.integers(-2, 6), st.none(), st.floats(allow_nan=True, width=64),
+                     st.sampled_from(["region", "points", "desired_camera", "object", "polygon", "", True]))
+
+
+@settings(max_examples=80)
+@given(st.sampled_from(["moments", "pbvs", "2.5d"]), ARGUMENT, hnp.arrays(np.float64, 6, elements=ENTRY),
+       st.sampled_from(["exact", "pose", "estimated", "desired"]), st.floats(1e-3, 1e3))
+def test_pose_and_moments_sources_finite_or_refused(kind, arg, twist, depth, scale):
+    """sim.MomentsSource / PbvsSource / Point25DSource of any argument on the compared (asymmetric) target,
+    then a short episode of its task from any start, any depth mode and scale: refused with ValueError /
+    TypeError naming the argument, or finite measurements and errors, ending in one of the outcomes."""
+    from ibvs.study import compare
+
+    make = {"moments": (sim.MomentsSource, ibvs.MomentsFeature, "source"),
+            "pbvs": (sim.PbvsSource, ibvs.PbvsFeature, "target"),
+            "2.5d": (sim.Point25DSource, lambda *_: ibvs.Point25DFeature(), "i")}[kind]
+    try:
+        source = make[0](arg)
+        target = compare.target().with_features([source])
+        block = make[1](arg) if kind != "2.5d" else make[1]()
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, make[2], "sources"), e
+        return
+    if not (np.all(np.isfinite(twist)) and np.abs(twist).max() <= 2.0):
+        return
+    try:
+        r = sim.run(ibvs.Servo(ibvs.Task().add(block), gain=1.0), sim.Camera.normalized(0.3),
+                    target, ibvs.se3_exp(twist) @ np.eye(4), np.eye(4), duration=0.1, depth=depth,
+                    depth_scale=scale, stop_on_singular=False)
+    except ValueError as e:
+        assert refused_by_name(e, "start", "goal"), e
+        return
+    assert r.status.outcome in sim.OUTCOMES
+    h = r.history
+    ok = np.isfinite(h.error_norm)
+    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
+    assert np.isfinite(h.twist).all()

@@ -9,6 +9,7 @@ import ibvs
 import ibvs.study.sweep as sw
 from ibvs import sim
 from ibvs.cli.main import main
+from ibvs.study.schemes import points_only
 
 # Small and fast: short episodes, few starts.
 SMALL = dict(episodes=6, seed=7, duration=6.0, progress=False)
@@ -17,7 +18,7 @@ SMALL = dict(episodes=6, seed=7, duration=6.0, progress=False)
 def test_reproducible_for_a_seed(tmp_path):
     a = sw.sweep(tmp_path / "a.csv", jobs=1, **SMALL)
     b = sw.sweep(tmp_path / "b.csv", jobs=2, **SMALL)
-    assert len(a) == 6 * len(sw.SCHEMES)
+    assert len(a) == 6 * len(points_only())
     assert [r["id"] for r in a] == [r["id"] for r in b]
     assert repr(a) == repr(b)
     # what is in the file is what was returned
@@ -53,7 +54,7 @@ def test_resume_after_interruption(tmp_path):
     # a third run does nothing new; more episodes extend the same file
     assert repr(sw.sweep(out, jobs=1, **SMALL)) == repr(again)
     more = sw.sweep(out, jobs=1, **{**SMALL, "episodes": 7})
-    assert len(more) == n + len(sw.SCHEMES)
+    assert len(more) == n + len(points_only())
 
 
 def test_aggregate_and_table():

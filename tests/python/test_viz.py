@@ -13,7 +13,7 @@ import pytest
 
 import ibvs
 from ibvs import sim, viz
-from ibvs.study.schemes import SCHEMES, make
+from ibvs.study.schemes import make, points_only
 
 Figure = pytest.importorskip("matplotlib.figure").Figure
 
@@ -39,7 +39,7 @@ def _pixel_free_nonplanar(duration: float = 2.0):
 
 
 RESULTS = {
-    **{f"free-{s}": (lambda s=s: _free(s)) for s in SCHEMES},
+    **{f"free-{s}": (lambda s=s: _free(s)) for s in points_only()},
     "gantry-stacked": lambda: _gantry("stacked"),
     "gantry-partitioned": lambda: _gantry("partitioned"),
     "free-pixel-nonplanar": _pixel_free_nonplanar,

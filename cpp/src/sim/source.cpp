@@ -1,6 +1,7 @@
 #include "ibvs/sim/source.hpp"
 
 #include "ibvs/features/line.hpp"
+#include "ibvs/limits.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -67,6 +68,143 @@ bool LineSource::measure(const SourceFrame& f, double* m) const noexcept {
   if (!plane_in_camera(f.depth_pose, n, d, plane)) return false;
   const auto& uv = *f.uv;
   return LineFeature::measure(uv(0, i_), uv(1, i_), uv(0, j_), uv(1, j_), plane[0], plane[1], plane[2], m);
+}
+
+}  // namespace ibvs::sim
+
+namespace ibvs::sim {
+
+namespace {
+
+/// The goal's a* and Z* of a planar target (z = 0) seen with pose cMo: the area of its image
+/// (a polygon's by the shoelace formula, or the points' mu20 + mu02) and the depth of the plane at
+/// the image's centre of gravity. False when a point is not in front of the camera.
+bool goal_area_depth(const Eigen::Matrix3Xd& P, const Pose& cMo, MomentsFeature::Source source, double& a,
+                     double& z) noexcept {
+  const Eigen::Index n = P.cols();
+  const auto image = [&](Eigen::Index k, double& x, double& y) {
+    const Eigen::Vector3d q = cMo.topLeftCorner<3, 3>() * P.col(k) + cMo.topRightCorner<3, 1>();
+    x = q(0) / q(2);
+    y = q(1) / q(2);
+    return q(2) >= min_depth;
+  };
+  double s0 = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, syy = 0.0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    double x0, y0, x1, y1;
+    if (!image(k, x0, y0) || !image((k + 1) % n, x1, y1)) return false;
+    if (source == MomentsFeature::Source::region) {
+      const double c = x0 * y1 - x1 * y0;  // Green's theorem: m00 = sum c / 2, m10 = sum (x0 + x1) c / 6
+      s0 += c / 2.0;
+      sx += (x0 + x1) * c / 6.0;
+      sy += (y0 + y1) * c / 6.0;
+    } else {
+      s0 += 1.0;
+      sx += x0;
+      sy += y0;
+      sxx += x0 * x0;
+      syy += y0 * y0;
+    }
+  }
+  if (!(std::abs(s0) > 0.0)) return false;
+  a = source == MomentsFeature::Source::region ? std::abs(s0) : sxx - sx * sx / s0 + syy - sy * sy / s0;
+  double plane[3];
+  if (!plane_in_camera(cMo, Eigen::Vector3d::UnitZ(), 0.0, plane)) return false;
+  const double inverse_depth = plane[0] * sx / s0 + plane[1] * sy / s0 + plane[2];
+  z = 1.0 / inverse_depth;
+  return inverse_depth > 0.0 && std::isfinite(z) && a > 0.0;
+}
+
+/// Whether T is finite (a NaN depth pose: no estimate yet).
+bool known(const Pose& T) noexcept { return T.allFinite(); }
+
+/// A measurement of n values is answered only when every one is finite (e.g. not the moments of
+/// points beyond the overflow range, not a NaN depth).
+bool finite(const double* m, int n) noexcept {
+  return std::all_of(m, m + n, [](double v) { return std::isfinite(v); });
+}
+
+}  // namespace
+
+std::string MomentsSource::describe() const {
+  return std::string("moments(") + (source_ == MomentsFeature::Source::region ? "region" : "points") + ")";
+}
+
+bool MomentsSource::fits(const Feature& f) const noexcept {
+  const auto* m = dynamic_cast<const MomentsFeature*>(&f);
+  return m != nullptr && m->source() == source_;
+}
+
+void MomentsSource::validate(const Eigen::Matrix3Xd& points, const std::string& name) const {
+  if (points.cols() < 3) throw std::invalid_argument("ibvs: " + name + ": moments need at least 3 target points");
+  const double scale = std::max(1.0, points.cwiseAbs().maxCoeff());
+  if (points.row(2).cwiseAbs().maxCoeff() > 1e-12 * scale)
+    throw std::invalid_argument("ibvs: " + name + ": the target's points must be in its z = 0 plane (a planar object)");
+}
+
+bool MomentsSource::measure(const SourceFrame& f, double* m) const noexcept {
+  double a_desired = 0.0, depth_desired = 0.0, plane[3];
+  if (!goal_area_depth(*f.points, f.goal, source_, a_desired, depth_desired)) return false;
+  if (!known(f.depth_pose) || !plane_in_camera(f.depth_pose, Eigen::Vector3d::UnitZ(), 0.0, plane)) return false;
+  const Moments mo = source_ == MomentsFeature::Source::region ? MomentsFeature::of_polygon(*f.uv)
+                                                                 : MomentsFeature::of_points(*f.uv);
+  const auto out = MomentsFeature::measure(mo, source_, a_desired, depth_desired, plane[0], plane[1], plane[2]);
+  std::copy(out.begin(), out.end(), m);
+  return finite(m, MomentsFeature::measurement_size);
+}
+
+std::string PbvsSource::describe() const {
+  return std::string("pbvs(") + (target_ == PbvsTarget::desired_camera ? "desired_camera" : "object") + ")";
+}
+
+bool PbvsSource::fits(const Feature& f) const noexcept {
+  const auto* p = dynamic_cast<const PbvsFeature*>(&f);
+  return p != nullptr && p->target() == target_;
+}
+
+/// camera <- target rotations of the depth pose and the goal: a rigid transform's, to the 1e-6
+/// PbvsFeature::measure asks (checked here so that measure() need not throw).
+static bool rigid(const Pose& T) noexcept {
+  const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
+  return T.allFinite() && (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 &&
+         R.determinant() > 0.0 && T(3, 0) == 0.0 && T(3, 1) == 0.0 && T(3, 2) == 0.0 && T(3, 3) == 1.0;
+}
+
+bool PbvsSource::measure(const SourceFrame& f, double* m) const noexcept {
+  if (!rigid(f.depth_pose) || !rigid(f.goal)) return false;
+  const Pose cdMc = f.goal * se3_inverse(f.depth_pose);  // the current camera in the desired camera's frame
+  const Eigen::Vector3d tu = theta_u(cdMc.topLeftCorner<3, 3>());
+  const Eigen::Vector3d t = target_ == PbvsTarget::desired_camera ? Eigen::Vector3d(cdMc.topRightCorner<3, 1>())
+                                                                  : Eigen::Vector3d(f.depth_pose.topRightCorner<3, 1>());
+  for (int r = 0; r < 3; ++r) {
+    m[r] = t(r);
+    m[3 + r] = tu(r);
+  }
+  return finite(m, 6);
+}
+
+Point25DSource::Point25DSource(int i) : i_(i) {
+  if (i < 0) throw std::invalid_argument("ibvs: point25d: the reference point's index must be >= 0");
+}
+
+bool Point25DSource::fits(const Feature& f) const noexcept {
+  return dynamic_cast<const Point25DFeature*>(&f) != nullptr;
+}
+
+void Point25DSource::validate(const Eigen::Matrix3Xd& points, const std::string& name) const {
+  if (i_ >= points.cols())
+    throw std::invalid_argument("ibvs: " + name + ": point " + std::to_string(i_) + " is not a target point (the target has " +
+                                std::to_string(points.cols()) + ")");
+}
+
+bool Point25DSource::measure(const SourceFrame& f, double* m) const noexcept {
+  if (!rigid(f.depth_pose) || !rigid(f.goal)) return false;
+  const Eigen::Matrix3d cdRc = f.goal.topLeftCorner<3, 3>() * f.depth_pose.topLeftCorner<3, 3>().transpose();
+  const Eigen::Vector3d tu = theta_u(cdRc);
+  m[0] = (*f.uv)(0, i_);
+  m[1] = (*f.uv)(1, i_);
+  m[2] = (*f.depth)(i_);
+  for (int r = 0; r < 3; ++r) m[3 + r] = tu(r);
+  return finite(m, 6);
 }
 
 }  // namespace ibvs::sim

@@ -71,6 +71,7 @@ def command(args) -> int:
     """Run `ibvs run`; the exit status (0 when the episode converged, else 1)."""
     from .. import sim
     from ..study import reproduce
+    from ..study import schemes as schemes_mod
 
     prog = "ibvs run"
     arm.check(prog, args)
@@ -114,6 +115,10 @@ def command(args) -> int:
                                                    keep_frames=bool(args.video or args.rerun))
         except ValueError as e:
             a.fail(prog, f"argument --vision: {e}")
+    try:  # a scheme beyond points checks the case's target (moments: not centrally symmetric)
+        schemes_mod.target_for(args.scheme, c.target)
+    except ValueError as e:
+        a.fail(prog, f"argument --scheme: {e}")
     case_obj, result = reproduce.run_one(args.world, case, args.scheme, duration=duration, noise=args.noise,
                                          latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
                                          tolerance=a.tolerance_of(args), tolerance_px=args.tolerance_px,

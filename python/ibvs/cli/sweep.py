@@ -51,6 +51,7 @@ def _grid_axis(text: str) -> tuple[str, list[float]]:
 def add_parser(sub) -> None:
     """The `sweep` subcommand's parser."""
     from ..study.scenario import DEPTH_MODES, MAX_DURATION, MAX_GAIN, PARAMETERS
+    from ..study.schemes import points_only
     from ..study.sweep import MAX_EPISODES, MAX_JOBS, SCHEMES
 
     w = sub.add_parser("sweep", help="many episodes over random or grid start poses, per scheme; aggregate table",
@@ -68,7 +69,7 @@ def add_parser(sub) -> None:
                    help="random start set-ups (default: the scenario file's, else 100)")
     w.add_argument("--seed", type=a.number(0, a.SEED_MAX, integer=True), help="seed of the start set-ups and noise")
     w.add_argument("--schemes", nargs="+", choices=list(SCHEMES), metavar="SCHEME",
-                   help=f"schemes to run (default all: {', '.join(SCHEMES)})")
+                   help=f"schemes to run (default: those on points only, {', '.join(points_only())})")
     w.add_argument("--range", type=_range, action="append", default=[], metavar="NAME=LO:HI",
                    help=f"override a sampling range ({', '.join(PARAMETERS)}; noise in measurement units: pixels "
                         f"for a pixel camera, normalised for the free world; latency in frames)")
@@ -120,6 +121,7 @@ def _on_sigterm(signum, frame):
 def command(args) -> int:
     """Run `ibvs sweep`; the exit status (130 on Ctrl-C, 143 on SIGTERM, 1 when the Dask scheduler is lost)."""
     from ..study import sweep as sw
+    from ..study.schemes import points_only
 
     prog = "ibvs sweep"
     if args.range and args.grid:
@@ -132,7 +134,7 @@ def command(args) -> int:
         schemes = args.schemes or options.get("schemes")
         spec = sw.SweepSpec(setup, seed=args.seed if args.seed is not None else options.get("seed", 0),
                             episodes=args.episodes if args.episodes is not None else options.get("episodes", 100),
-                            schemes=tuple(schemes) if schemes else tuple(sw.SCHEMES),
+                            schemes=tuple(schemes) if schemes else points_only(),
                             grid=dict(args.grid) or None).validate()
         sw.load(args.out, spec.config())
     except (ValueError, TypeError, OSError) as e:

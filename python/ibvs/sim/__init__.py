@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from . import cases
 from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
+from .episode import MomentsSource, PbvsSource, Point25DSource
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
 from .miscalibrated import MiscalibratedRobot
@@ -42,7 +43,10 @@ __all__ = [
     "LineSource",
     "Metrics",
     "MiscalibratedRobot",
+    "MomentsSource",
     "OUTCOMES",
+    "PbvsSource",
+    "Point25DSource",
     "Result",
     "Robot",
     "RunStatus",

@@ -23,6 +23,9 @@ Gantry = _sim.Gantry
 Sensor = _sim.Sensor
 FeatureSource = _sim.FeatureSource
 LineSource = _sim.LineSource
+MomentsSource = _sim.MomentsSource
+PbvsSource = _sim.PbvsSource
+Point25DSource = _sim.Point25DSource
 
 
 _REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}

@@ -229,7 +229,8 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
     servo = schemes.make(scheme, GAIN[world] if gain is None else gain, len(c.target))
     if isinstance(servo, ibvs.Servo):
         servo.angle_wrap = angle_wrap
-    result = sim.run(servo, camera, c.target, c.start, c.goal, robot=c.robot,
+    target = schemes.target_for(scheme, c.target)  # with the scheme's feature sources, if any
+    result = sim.run(servo, camera, target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
                      depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance,
                      tolerance_px=tolerance_px, vision=vision, record=record)

@@ -5,13 +5,23 @@ SCHEMES maps a name to a factory(gain, n_points) returning a servo for n_points 
 points: an ibvs.Servo or an ibvs.PartitionedServo, anything ibvs.sim.run accepts. The
 factories are module-level functions so that process pools and Dask can pickle them;
 register_scheme adds more.
+
+A scheme whose task has feature blocks beyond points (image moments, PBVS, 2.5-D) also needs
+the target to carry their feature sources: TARGETS maps its name to a function fn(target)
+returning the target with them (ibvs.sim.Target.with_features), which ibvs.study.sweep and
+ibvs.study.reproduce apply before each run (target_for). The schemes on a pose (pbvs,
+pbvs_object, 2.5d) measure it with the run's depth mode: "exact" (the true pose), "pose"
+(ibvs.PlanarPose's estimate) or "estimated"; "desired" gives them the goal's pose, i.e. no error.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import inspect
-from typing import Any, Callable
+from typing import Any, Callable, Optional
+
+import numpy as np
 
 import ibvs
 
@@ -54,6 +64,76 @@ def partitioned(gain: float, n_points: int = 4):
     return ibvs.PartitionedServo(n_points, gain=gain)
 
 
+def moments(gain: float, n_points: int = 4):
+    """Image moments of the target as a planar polygon (Tahri & Chaumette 2005): xn, yn, an, the
+    rotation invariants p and the orientation alpha over the full turn (third-order moments; a
+    target without central symmetry)."""
+    return ibvs.Servo(ibvs.Task().add(ibvs.MomentsFeature("region", "p", "third_order")), gain=gain, damping=0.0)
+
+
+def moments_pi(gain: float, n_points: int = 4):
+    """Image moments as `moments` with the orientation alpha of the second-order moments (the
+    principal axis, defined modulo pi)."""
+    return ibvs.Servo(ibvs.Task().add(ibvs.MomentsFeature("region", "p", "second_order")), gain=gain, damping=0.0)
+
+
+def pbvs(gain: float, n_points: int = 4):
+    """PBVS, camera to desired camera: s = (c*t_c, theta u) (Chaumette & Hutchinson 2006, Sec. IV)."""
+    return ibvs.Servo(ibvs.Task().add(ibvs.PbvsFeature("desired_camera")), gain=gain, damping=0.0)
+
+
+def pbvs_object(gain: float, n_points: int = 4):
+    """PBVS, camera to object: s = (c t_o, theta u) (Chaumette & Hutchinson 2006, Sec. IV)."""
+    return ibvs.Servo(ibvs.Task().add(ibvs.PbvsFeature("object")), gain=gain, damping=0.0)
+
+
+def point25d(gain: float, n_points: int = 4):
+    """2.5-D visual servoing (Malis, Chaumette & Boudet 1999): (x, y, log Z, theta u) of target point 0."""
+    return ibvs.Servo(ibvs.Task().add(ibvs.Point25DFeature()), gain=gain, damping=0.0)
+
+
+def _planar_polygon(target, name: str):
+    """Refuse a target the moments schemes cannot use, naming why."""
+    P = np.asarray(target.points, dtype=float)
+    if len(P) < 3 or np.max(np.abs(P[:, 2])) > 1e-12 * max(1.0, np.max(np.abs(P))):
+        raise ValueError(f"scheme {name}: the target must be a planar polygon (>= 3 points in its z = 0 plane)")
+    return P
+
+
+def moments_target(target):
+    """The target with a MomentsSource("region"): its points are the polygon's vertices, in order.
+    Raises ValueError for a centrally symmetric target (the paper's square), whose third-order
+    orientation is undefined."""
+    P = _planar_polygon(target, "moments")
+    c = P.mean(axis=0)
+    scale = max(float(np.ptp(P)), 1e-300)
+    if all(np.min(np.linalg.norm(P - q, axis=1)) < 1e-9 * scale for q in 2 * c - P):
+        raise ValueError("scheme moments: the target is centrally symmetric (e.g. the paper's square): its "
+                         "orientation alpha from third-order moments is undefined; use an asymmetric polygon")
+    return target.with_features([ibvs.sim.MomentsSource("region")])
+
+
+def moments_pi_target(target):
+    """The target with a MomentsSource("region") (alpha from second-order moments, modulo pi)."""
+    _planar_polygon(target, "moments_pi")
+    return target.with_features([ibvs.sim.MomentsSource("region")])
+
+
+def pbvs_target(target):
+    """The target with a PbvsSource("desired_camera")."""
+    return target.with_features([ibvs.sim.PbvsSource("desired_camera")])
+
+
+def pbvs_object_target(target):
+    """The target with a PbvsSource("object")."""
+    return target.with_features([ibvs.sim.PbvsSource("object")])
+
+
+def point25d_target(target):
+    """The target with a Point25DSource(0): its point 0 is the reference point."""
+    return target.with_features([ibvs.sim.Point25DSource(0)])
+
+
 #: Scheme name -> factory(gain, n_points) -> servo.
 SCHEMES: dict[str, Callable[..., Any]] = {
     "cartesian": cartesian,
@@ -63,6 +143,21 @@ SCHEMES: dict[str, Callable[..., Any]] = {
     "cylindrical": cylindrical,
     "automatic": automatic,
     "partitioned": partitioned,
+    "moments": moments,
+    "moments_pi": moments_pi,
+    "pbvs": pbvs,
+    "pbvs_object": pbvs_object,
+    "2.5d": point25d,
+}
+
+#: Scheme name -> fn(target) -> the target carrying the scheme's feature sources (schemes whose
+#: task has blocks beyond points).
+TARGETS: dict[str, Callable[..., Any]] = {
+    "moments": moments_target,
+    "moments_pi": moments_pi_target,
+    "pbvs": pbvs_target,
+    "pbvs_object": pbvs_object_target,
+    "2.5d": point25d_target,
 }
 
 #: What each built-in scheme is, for titles and --help.
@@ -74,7 +169,17 @@ TITLES = {
     "cylindrical": "cylindrical (r, rθ)",
     "automatic": "automatic hybrid",
     "partitioned": "partitioned (Corke & Hutchinson)",
+    "moments": "image moments (Tahri & Chaumette), α from 3rd-order moments",
+    "moments_pi": "image moments, α from 2nd-order moments (mod π)",
+    "pbvs": "PBVS, camera to desired camera",
+    "pbvs_object": "PBVS, camera to object",
+    "2.5d": "2.5-D (Malis et al.), reference point 0",
 }
+
+def points_only() -> tuple:
+    """The registered schemes on image points only (no target function): what a sweep runs by default."""
+    return tuple(s for s in SCHEMES if s not in TARGETS)
+
 
 #: The four schemes of the paper.
 PAPER = ("cartesian", "polar", "hybrid", "stacked")
@@ -90,27 +195,61 @@ def _takes_points(factory) -> bool:
     return len(positional) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in params)
 
 
+@dataclasses.dataclass(frozen=True)
+class Scheme:
+    """A scheme as a worker process receives it: its factory and its target function (None: the
+    target as it is). Picklable when both are module-level functions."""
+
+    factory: Callable[..., Any]
+    target: Optional[Callable[..., Any]] = None
+
+
+def entry(name: str) -> Scheme:
+    """The registered scheme `name` as a Scheme (factory and target function)."""
+    return Scheme(SCHEMES[name], TARGETS.get(name))
+
+
+def target_for(scheme, target):
+    """The target a run of `scheme` (a name, a Scheme or a factory) uses: target itself, or
+    with the scheme's feature sources (TARGETS)."""
+    fn = TARGETS.get(scheme) if isinstance(scheme, str) else getattr(scheme, "target", None)
+    return target if fn is None else fn(target)
+
+
 def make(scheme, gain: float, n_points: int = 4):
-    """A servo of `scheme` (a name in SCHEMES, or a factory) for n_points points. Factories
+    """A servo of `scheme` (a name in SCHEMES, a Scheme, or a factory) for n_points points. Factories
     written for the paper's four points, factory(gain), are accepted when n_points is 4."""
     factory = SCHEMES[scheme] if isinstance(scheme, str) else scheme
+    if isinstance(factory, Scheme):
+        factory = factory.factory
     if _takes_points(factory):
         return factory(gain, n_points)
     servo = factory(gain)
-    if servo.layout.n_points != n_points:
+    if servo.layout is not None and servo.layout.n_points != n_points:
         raise ValueError(f"scheme: its factory makes a servo for {servo.layout.n_points} points, the target has "
                          f"{n_points}; write it as factory(gain, n_points)")
     return servo
 
 
-def register_scheme(name: str, factory: Callable[..., Any], *, replace: bool = False) -> None:
+def register_scheme(name: str, factory: Callable[..., Any], *, target: Optional[Callable[..., Any]] = None,
+                    replace: bool = False) -> None:
     """Add a scheme: factory(gain, n_points) returns a servo for n_points points (anything
-    ibvs.sim.run accepts as servo; factory(gain) is accepted for four-point targets). Raises
-    ValueError if the name exists (unless replace)."""
+    ibvs.sim.run accepts as servo; factory(gain) is accepted for four-point targets). target:
+    fn(target) returning the target with the feature sources of the servo's task's blocks beyond
+    points (ibvs.sim.Target.with_features), None for a servo on points only. Module-level functions
+    keep the scheme usable by process pools and Dask. Raises ValueError if the name exists (unless
+    replace)."""
     if not isinstance(name, str) or not name or any(c in name for c in ",: \t\n"):
         raise ValueError(f"name must be a non-empty string without ',', ':' or spaces, got {name!r}")
     if not callable(factory):
         raise TypeError(f"factory must be callable (gain, n_points -> servo), got {type(factory).__name__}")
     if name in SCHEMES and not replace:
         raise ValueError(f"name: scheme {name!r} is already registered (pass replace=True)")
+    if target is not None and not callable(target):
+        raise TypeError(f"target must be None or callable (target -> target with feature sources), got "
+                        f"{type(target).__name__}")
     SCHEMES[name] = factory
+    if target is None:
+        TARGETS.pop(name, None)
+    else:
+        TARGETS[name] = target

@@ -26,7 +26,10 @@
 //     its translation times depth_scale (every depth of the scene scaled about
 //     the camera centre, as the points' depths are), except for estimated;
 //   * depth: the depths the depth mode gave the points (N), for per-point
-//     depth inputs (a segment's endpoint depths).
+//     depth inputs (a segment's endpoint depths);
+//   * goal: the goal's true camera <- target pose c*Mo, for features whose
+//     measurement compares the current pose with the desired one (PBVS,
+//     2.5-D) or needs the goal's area and depth (moments).
 // At the goal (frame -1, teach by showing) cMo = depth_pose = the goal's true
 // pose, uv and depth the desired points and depths.
 //
@@ -45,6 +48,8 @@
 #pragma once
 
 #include "ibvs/feature.hpp"
+#include "ibvs/features/moments.hpp"
+#include "ibvs/features/pose.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/se3.hpp"
 
@@ -60,6 +65,7 @@ struct SourceFrame {
   int frame = 0;                                ///< -1: the goal, then 0, 1, ...
   Pose cMo = Pose::Identity();                  ///< true camera <- target of the frame the controller sees
   Pose depth_pose = Pose::Identity();           ///< camera <- target as the depth mode knows it (NaN: unknown)
+  Pose goal = Pose::Identity();                 ///< camera <- target at the goal, true (c*Mo: the desired camera)
   const Eigen::Matrix3Xd* points = nullptr;     ///< 3 x N target points, target frame
   const Points* uv = nullptr;                   ///< 2 x N the controller's points, normalised
   const Eigen::VectorXd* depth = nullptr;       ///< N depths the depth mode gave them, metres
@@ -114,6 +120,62 @@ class LineSource final : public FeatureSource {
 
  private:
   int i_, j_, k_;
+};
+
+/// Image moments (MomentsFeature) of the target's points taken as one planar object: the moments
+/// of the controller's points uv (MomentsFeature::of_polygon for source region: the points are the
+/// polygon's vertices in order; of_points for source points), the plane (A, B, C) of the target's
+/// z = 0 plane from the depth pose, and the goal's a* (the area of the goal's image of the points)
+/// and Z* (the goal's depth at that image's centre of gravity). Every target point must be in the
+/// z = 0 plane. Lost when the plane passes through the camera centre.
+class MomentsSource final : public FeatureSource {
+ public:
+  explicit MomentsSource(MomentsFeature::Source source = MomentsFeature::Source::region) noexcept : source_(source) {}
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<MomentsSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return MomentsFeature::measurement_size; }
+  bool fits(const Feature& f) const noexcept override;
+  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+  MomentsFeature::Source source() const noexcept { return source_; }
+
+ private:
+  MomentsFeature::Source source_;
+};
+
+/// PBVS (PbvsFeature): PbvsFeature::measure(depth_pose, goal, target), i.e. the pose the depth
+/// mode gives (exact: the true one; pose: ibvs::PlanarPose's estimate from the image) against the
+/// goal's true pose. Lost when the depth pose is unknown or not a rigid transform.
+class PbvsSource final : public FeatureSource {
+ public:
+  explicit PbvsSource(PbvsTarget target = PbvsTarget::desired_camera) noexcept : target_(target) {}
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<PbvsSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return 6; }
+  bool fits(const Feature& f) const noexcept override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+  PbvsTarget target() const noexcept { return target_; }
+
+ private:
+  PbvsTarget target_;
+};
+
+/// 2.5-D (Point25DFeature) of target point i as the reference point: (x, y) the controller's
+/// point uv(i), Z the depth the depth mode gave it, theta u of c*Rc from the depth pose's rotation
+/// against the goal's. Lost when the depth pose is unknown or not a rigid transform.
+class Point25DSource final : public FeatureSource {
+ public:
+  explicit Point25DSource(int i = 0);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<Point25DSource>(*this); }
+  std::string describe() const override { return "point25d(" + std::to_string(i_) + ")"; }
+  int size() const noexcept override { return 6; }
+  bool fits(const Feature& f) const noexcept override;
+  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+  int i() const noexcept { return i_; }
+
+ private:
+  int i_;
 };
 
 }  // namespace ibvs::sim

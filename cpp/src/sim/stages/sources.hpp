@@ -130,7 +130,7 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
   goal_cMo_ = se3_inverse(goal) * target_.pose;
   SourceFrame f;
   f.frame = -1;
-  f.cMo = f.depth_pose = goal_cMo_;
+  f.cMo = f.depth_pose = f.goal = goal_cMo_;
   f.uv = &uv_desired;
   f.depth = &depth_desired;
   f.points = &target_.points;
@@ -150,6 +150,7 @@ inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, 
   SourceFrame f;
   f.frame = k;
   f.cMo = T_cw * target_.pose;
+  f.goal = goal_cMo_;
   f.uv = &uv;
   f.depth = &z;
   switch (mode_) {

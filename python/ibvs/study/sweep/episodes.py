@@ -33,11 +33,12 @@ def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict]
         return {**row, "outcome": why, "frame": -1, "point": -1, "joint": -1, "frames_to_converge": -1,
                 **{k: math.nan for k in COLUMNS[COLUMNS.index("time_to_converge"):]}}
     servo = schemes.make(factory or scheme, setup.gain, len(setup.target))
+    target = schemes.target_for(factory or scheme, setup.target)  # with the scheme's feature sources, if any
     if isinstance(servo, ibvs.Servo):
         servo.angle_wrap = setup.angle_wrap
     # The noise seed is the episode's, shared by every scheme.
     noise_seed = int(np.random.default_rng([int(spec.seed), int(index), 1]).integers(0, 2**63))
-    r = sim.run(servo, setup.camera, setup.target, start, setup.goal_for_run(), robot=setup.robot,
+    r = sim.run(servo, setup.camera, target, start, setup.goal_for_run(), robot=setup.robot,
                 duration=setup.duration, noise=p["noise"], latency=int(p["latency"]), depth=setup.depth,
                 seed=noise_seed, tolerance=setup.tolerances()[0], tolerance_px=setup.tolerances()[1],
                 depth_scale=p["depth_scale"],

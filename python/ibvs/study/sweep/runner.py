@@ -10,6 +10,7 @@ import os
 from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence, Union
 
+from .. import schemes as schemes_mod
 from ..schemes import SCHEMES
 from ..scenario import Scenario, builtin
 from ..scenario import load as load_scenario
@@ -84,7 +85,7 @@ def sweep(
         scenario file, whose [sweep] table gives defaults for episodes, seed and schemes.
         world: the built-in name (the same as scenario=name).
     episodes: number of random start set-ups (default 100; ignored with grid); seed: their seed.
-    schemes: names in SCHEMES (default: all registered).
+    schemes: names in SCHEMES (default: every registered scheme on points only, schemes.points_only()).
     ranges: {parameter: (lo, hi)} overriding the scenario's start distribution (PARAMETERS).
     grid: {parameter: values}: every combination instead of random samples.
     gain, duration, depth, tolerance, tolerance_px, boundary_margin, boundary_gain: override the
@@ -104,7 +105,7 @@ def sweep(
     schemes = schemes if schemes is not None else options.get("schemes")
     spec = SweepSpec(scenario=setup, seed=seed if seed is not None else options.get("seed", 0),
                      episodes=episodes if episodes is not None else options.get("episodes", 100),
-                     schemes=tuple(schemes) if schemes is not None else tuple(SCHEMES), grid=grid).validate()
+                     schemes=tuple(schemes) if schemes is not None else schemes_mod.points_only(), grid=grid).validate()
     if jobs is not None:
         check_int(jobs, "jobs", 1, MAX_JOBS)
     if batch is not None:
@@ -120,7 +121,7 @@ def sweep(
     todo = [(i, s) for i, s in wanted if episode_id(config, i, s) not in existing]
     if limit is not None:
         todo = todo[:limit]
-    factories = {s: SCHEMES[s] for s in spec.schemes}
+    factories = {s: schemes_mod.entry(s) for s in spec.schemes}
     client = connect(scheduler) if scheduler is not None else None
     rows = dict(existing)
     writer = RowWriter(path)

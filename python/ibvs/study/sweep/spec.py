@@ -9,7 +9,7 @@ from typing import Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from ..schemes import SCHEMES
+from ..schemes import SCHEMES, target_for
 from ..scenario import DEFAULTS, LIMITS, PARAMETERS, Scenario, builtin
 
 # What ibvs.study.sweep re-exports (and documents); the other names here are its own helpers.
@@ -57,6 +57,8 @@ class SweepSpec:
         for s in self.schemes:
             if s not in SCHEMES:
                 raise ValueError(f"schemes: unknown scheme {s!r}; registered: {', '.join(SCHEMES)}")
+        for s in self.schemes:  # a scheme beyond points: its target function accepts this target (or says why)
+            target_for(s, self.setup.target)
         if len(set(self.schemes)) != len(self.schemes):
             raise ValueError(f"schemes: duplicate names in {list(self.schemes)}")
         for name, values in (self.grid or {}).items():
