@@ -13,6 +13,8 @@ from math import comb
 
 import numpy as np
 
+__all__ = ["image_moments"]
+
 
 def image_moments(mask, camera) -> np.ndarray:
     """Moments m00, m10, m01, m20, m11, m02, m30, ..., m04 (15,) of the non-zero pixels of `mask`.
