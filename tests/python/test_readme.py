@@ -112,8 +112,8 @@ def test_about_is_three_sentences():
 
 
 def test_comparison_names_only_features_ibvs_has():
-    """The "other features" cell of ibvs: a dash only when ibvs has no feature block besides points; the lines it
-    names are ibvs.LineFeature, a block of an ibvs.Task."""
+    """The "other features" cell of ibvs: a dash only when ibvs has no feature block besides points; every kind it
+    names is a feature block of an ibvs.Task (an ibvs.Feature subclass)."""
     import ibvs
 
     row = next(line for line in README.splitlines() if line.startswith("| other features |"))
@@ -121,5 +121,8 @@ def test_comparison_names_only_features_ibvs_has():
     blocks = [n for n in dir(ibvs) if isinstance(getattr(ibvs, n), type) and issubclass(getattr(ibvs, n), ibvs.Feature)
               and getattr(ibvs, n) is not ibvs.Feature]
     assert (cell == "—") == (not blocks), f"other features: {cell!r}, while ibvs has {blocks}"
-    if "lines" in cell:
-        assert "LineFeature" in blocks and "Task" in cell
+    kinds = {"lines": "LineFeature", "segments": "SegmentFeature", "ellipses": "EllipseFeature",
+             "moments": "MomentsFeature", "2.5-D": "Point25DFeature", "PBVS": "PbvsFeature", "yours": "FunctionFeature"}
+    named = [k.strip() for k in cell.split(",")]
+    for k in named:
+        assert k in kinds and kinds[k] in blocks, f"other features names {k!r}, which is not a feature block of ibvs"

@@ -26,6 +26,8 @@ length, peak camera speeds, final pose error.
 
 from __future__ import annotations
 
+import textwrap
+
 import argparse
 import math
 import time
@@ -280,6 +282,20 @@ def moments_limit(rows: Sequence[Row]) -> str:
             "largest), so a depth error does not matter there either.")
 
 
+def wrap(text: str, width: int = 120) -> str:
+    """Paragraphs and list items of a Markdown page wrapped at `width` characters (the docs' line limit,
+    tests/python/test_docs_lines.py); headings, table rows and figures left as they are."""
+    out = []
+    for line in text.split("\n"):
+        if len(line) <= width or line.startswith(("|", "#", "![")):
+            out.append(line)
+        else:
+            indent = "  " if line.startswith("- ") else ""
+            out.append(textwrap.fill(line, width, subsequent_indent=indent, break_long_words=False,
+                                     break_on_hyphens=False))
+    return "\n".join(out)
+
+
 def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, general: int, seconds: float) -> str:
     """docs/compare.md."""
     n_runs = len(rows)
@@ -353,7 +369,7 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "- Calibration errors are not in this study.",
         "",
     ]
-    return "\n".join(parts)
+    return wrap("\n".join(parts))
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
