@@ -666,17 +666,23 @@ class Servo:
     def reset(self, twist: _ArrayLike | None = None) -> None:
         """Forget the previous frame's angle-wrap branch; with decay_rate > 0 start from twist (None: rest)."""
     @property
-    def decay_rate(self) -> float: ...
+    def decay_rate(self) -> float:
+        """mu >= 0 (1/s) of the continuous law (Mansard & Chaumette 2007, eq. 17); 0: off."""
     @property
-    def max_linear_acceleration(self) -> float: ...
+    def max_linear_acceleration(self) -> float:
+        """Limit on the change of T per second (m/s^2), direction kept; inf: none."""
     @property
-    def max_angular_acceleration(self) -> float: ...
+    def max_angular_acceleration(self) -> float:
+        """Limit on the change of w per second (rad/s^2), direction kept; inf: none."""
     @property
-    def period(self) -> float: ...
+    def period(self) -> float:
+        """The control period (s) that decay_rate, the acceleration limits and stop_time use."""
     @property
-    def cartesian_near_goal(self) -> float: ...
+    def cartesian_near_goal(self) -> float:
+        """> 0: polar blocks Cartesian while every valid point is within this of its goal; 0: off."""
     @property
-    def stop_time(self) -> float: ...
+    def stop_time(self) -> float:
+        """With too few valid points, the time (s) over which the twist ramps to zero."""
     @property
     def camera(self) -> CameraModel | None:
         """The CameraModel used by update_pixels (None if not given)."""

@@ -111,6 +111,7 @@ def run(scheme: str, start: np.ndarray, depth_scale: float = 1.0, setup: Optiona
 
 
 def summarise(study: str, start: str, scheme: str, result, depth_scale: float = 1.0) -> Row:
+    """The Row of one run: its outcome, whether it reached the goal, retreat, path and peak speeds."""
     s, m = result.status, result.metrics
     reached = bool(m.final_translation_error < REACHED[0] and m.final_rotation_error < REACHED[1])
     return Row(study, start, scheme, depth_scale, s.outcome, bool(s.converged), reached, s.outcome != "left_image",
@@ -373,6 +374,7 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    """`ibvs compare`: run the study, write compare.csv, compare.md and the figures (and docs/ with --docs)."""
     p = argparse.ArgumentParser(prog="ibvs compare", description="Compare IBVS, IBVS-P, stacked, cylindrical, "
                                 "partitioned, image moments, 2.5-D and both PBVS variants on the same cases.")
     p.add_argument("--out", default="ibvs-compare", help="output directory: compare.csv, compare.md, figures")
