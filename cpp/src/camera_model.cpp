@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -85,6 +86,18 @@ double smallest_positive_root(const std::array<double, 5>& c, int degree, double
       (p(mid) > 0.0 ? lo : hi) = mid;
     }
   return hi;
+}
+
+// The equidistant (Kannala-Brandt) lens: theta_d(theta) = theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8),
+// t = theta, and its derivative; k = k_[0..3]. One place for the polynomial that projection, inversion
+// and the model's limits all use.
+double equidistant_theta_d(const std::array<double, 5>& k, double th) noexcept {
+  const double t2 = th * th;
+  return th * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
+}
+double equidistant_slope(const std::array<double, 5>& k, double th) noexcept {
+  const double t2 = th * th;
+  return 1.0 + t2 * (3.0 * k[0] + t2 * (5.0 * k[1] + t2 * (7.0 * k[2] + t2 * 9.0 * k[3])));
 }
 
 // Root of f(r) = target for f increasing on [0, hi) with f(0) = 0 <= target:
@@ -354,12 +367,8 @@ void CameraModel::set_domain() {
         r_max_ = std::tan(theta_max_);
         r2_max_ = r_max_ * r_max_;
       }
-      const auto g = [&](double th) {
-        const double t2 = th * th;
-        return th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
-      };
-      rd_max_ = g(theta_max_);
-      fold_rd_ = g(angle_max_);
+      rd_max_ = equidistant_theta_d(k_, theta_max_);
+      fold_rd_ = equidistant_theta_d(k_, angle_max_);
       break;
     }
     case Distortion::omnidir: {
@@ -429,8 +438,8 @@ bool CameraModel::project(double x, double y, Eigen::Vector2d& pixel) const noex
       break;
     }
     case Distortion::equidistant: {
-      const double r = std::sqrt(r2), th = std::atan(r), t2 = th * th;
-      const double thd = th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
+      const double r = std::sqrt(r2), th = std::atan(r);
+      const double thd = equidistant_theta_d(k_, th);
       const double s = r > 0.0 ? thd / r : 1.0;
       pixel << u0_ + px_ * (x * s), v0_ + py_ * (y * s);
       break;
@@ -552,14 +561,8 @@ bool CameraModel::undistort_equidistant(double xd, double yd, Eigen::Vector2d& u
     return true;
   }
   if (!(thd < rd_max_)) return false;
-  const auto g = [&](double th) {
-    const double t2 = th * th;
-    return th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
-  };
-  const auto dg = [&](double th) {
-    const double t2 = th * th;
-    return 1.0 + t2 * (3.0 * k_[0] + t2 * (5.0 * k_[1] + t2 * (7.0 * k_[2] + t2 * 9.0 * k_[3])));
-  };
+  const auto g = [&](double th) { return equidistant_theta_d(k_, th); };
+  const auto dg = [&](double th) { return equidistant_slope(k_, th); };
   const double th = bracketed_newton(g, dg, thd, theta_max_);
   const double s = std::tan(th) / thd;
   uv << xd * s, yd * s;
@@ -586,14 +589,8 @@ bool CameraModel::equidistant_bearing(double u, double v, Eigen::Vector3d& b) co
     return true;
   }
   if (!(thd < fold_rd_)) return false;
-  const auto g = [&](double th) {
-    const double t2 = th * th;
-    return th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
-  };
-  const auto dg = [&](double th) {
-    const double t2 = th * th;
-    return 1.0 + t2 * (3.0 * k_[0] + t2 * (5.0 * k_[1] + t2 * (7.0 * k_[2] + t2 * 9.0 * k_[3])));
-  };
+  const auto g = [&](double th) { return equidistant_theta_d(k_, th); };
+  const auto dg = [&](double th) { return equidistant_slope(k_, th); };
   const double th = bracketed_newton(g, dg, thd, angle_max_);
   const double s = std::sin(th) / thd;
   b << xd * s, yd * s, std::cos(th);
@@ -637,8 +634,8 @@ bool CameraModel::from_bearing(double X, double Y, double Z, Eigen::Vector2d& pi
   }
   switch (distortion_) {
     case Distortion::equidistant: {
-      const double rho = std::sqrt(X * X + Y * Y), th = std::atan2(rho, Z), t2 = th * th;
-      const double thd = th * (1.0 + t2 * (k_[0] + t2 * (k_[1] + t2 * (k_[2] + t2 * k_[3]))));
+      const double rho = std::sqrt(X * X + Y * Y), th = std::atan2(rho, Z);
+      const double thd = equidistant_theta_d(k_, th);
       const double s = rho > 0.0 ? thd / rho : 0.0;
       pixel << u0_ + px_ * (X * s), v0_ + py_ * (Y * s);
       return true;
