@@ -2,6 +2,8 @@
 
 #include "ibvs/pinv.hpp"
 
+#include "joint_svd.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
