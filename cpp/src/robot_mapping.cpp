@@ -2,7 +2,7 @@
 
 #include "ibvs/pinv.hpp"
 
-#include "joint_svd.hpp"
+#include "svd_instances.hpp"
 #include "solve.hpp"
 
 #include <algorithm>
@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-// The one instantiation of the joint-space SVD (joint_svd.hpp), shared with secondary_task.cpp.
+// The one instantiation of the joint-space SVD (svd_instances.hpp), shared with secondary_task.cpp.
 template class Eigen::JacobiSVD<ibvs::detail::JointSvdMatrix>;
 
 namespace ibvs {

@@ -2,7 +2,7 @@
 
 #include "ibvs/pinv.hpp"
 
-#include "joint_svd.hpp"
+#include "svd_instances.hpp"
 
 #include <Eigen/Eigenvalues>
 
