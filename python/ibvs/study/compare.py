@@ -67,10 +67,13 @@ REACHED = (1e-3, 1e-3)  # metres, radians
 DEPTH_SCALES = (0.5, 0.8, 1.25, 2.0)
 #: The start of the depth study: general, every axis.
 DEPTH_START = dict(DEFAULTS, rz_deg=60.0, tilt_deg=8.0, tilt_dir_deg=30.0, tx=0.1, ty=-0.05, tz=-0.3)
-#: The calibration study's true camera: focal length FOCAL px, principal point at the centre of a square image of
-#: 2 HALF px, i.e. the normalised +-0.3 image of the other studies; K1: the radial distortion (OpenCV's k1) of the
-#: case where the controller ignores it (3.5 % at the image's corners).
-FOCAL, HALF, K1 = 800.0, 240.0, -0.2
+#: The calibration study's true camera: its focal length (px) ...
+FOCAL = 800.0
+#: ... and half its square image's side (px), the principal point at its centre: the normalised +-0.3 image.
+HALF = 240.0
+#: The radial distortion (OpenCV's k1) of the calibration case where the controller ignores it (3.5 % at the
+#: image's corners).
+K1 = -0.2
 #: The calibration errors, label -> (believed focal length / true, believed principal point - true (px),
 #: the true camera has the distortion K1 that the controller ignores). "none": the pose depth mode's baseline.
 CALIBRATIONS = {
@@ -326,18 +329,20 @@ def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
     if cal:
         labels = list(dict.fromkeys(r.start for r in cal))
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-        for scheme in dict.fromkeys(r.scheme for r in cal):
+        order = list(dict.fromkeys(r.scheme for r in cal))
+        for j, scheme in enumerate(order):
             by = {r.start: r for r in cal if r.scheme == scheme}
-            x = [labels.index(lab) for lab in labels if lab in by]
+            x = [labels.index(lab) + 0.6 * (j / max(len(order) - 1, 1) - 0.5) for lab in labels if lab in by]
             ok = [by[lab] if by[lab].in_image else None for lab in labels if lab in by]
-            ax[0].plot(x, [max(r.final_translation_error * 1000, 1e-3) if r else np.nan for r in ok], "o-", ms=3,
+            marker = "o" if scheme in IMAGE_BASED else ("s" if scheme.startswith("moments") else "^")
+            ax[0].plot(x, [max(r.final_translation_error * 1000, 1e-3) if r else np.nan for r in ok], marker, ms=4,
                        label=scheme)
-            ax[1].plot(x, [max(np.degrees(r.final_rotation_error), 1e-5) if r else np.nan for r in ok], "o-", ms=3,
+            ax[1].plot(x, [max(np.degrees(r.final_rotation_error), 1e-5) if r else np.nan for r in ok], marker, ms=4,
                        label=scheme)
         for a, what in zip(ax, ("final camera position error (mm)", "final camera rotation error (deg)")):
             a.set(yscale="log", ylabel=what, xticks=range(len(labels)))
             a.set_xticklabels(labels, rotation=30, fontsize=7)
-        ax[0].set_title("sensitivity to calibration error (gaps: a point left the image)", fontsize=9)
+        ax[0].set_title("sensitivity to calibration error (missing: a point left the image)", fontsize=9)
         ax[1].legend(fontsize=7, ncol=2)
         fig.tight_layout()
         names.append("compare_calibration.png")
