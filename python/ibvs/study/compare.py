@@ -14,7 +14,7 @@ third-order moments is undefined, and from second-order moments too (mu20 = mu02
 moments task can servo on it (moments_target refuses it). The pose schemes take the true pose
 (depth "exact", times depth_scale): the comparison of the laws, not of a pose estimator.
 
-Studies (the default size, 10 schemes x 76 starts, runs in about 15 s on one core):
+Studies (the default size, 10 schemes x 83 starts, runs in about 15 s on one core):
   * paper: the paper's free-camera cases (x translation, rotation by 180 deg about z, general motion);
   * rotation: rotation about the optical axis from 0 to 180 deg (`rotations` angles, default 19);
   * general: `general` (default 50) random starts of the free world's distribution (seeded);
