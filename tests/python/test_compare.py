@@ -300,13 +300,13 @@ def test_calibration_error_leaves_ibvs_at_the_goal_and_biases_pbvs(calibration):
 
 
 def test_the_calibration_table_of_the_docs_is_the_commands():
-    """docs/compare.md's calibration rows for three schemes, rerun (the whole page: ibvs compare --docs)."""
+    """docs/compare.md's calibration rows of three schemes, rerun: the page is the command's (ibvs compare --docs)."""
     from pathlib import Path
 
     page = (Path(__file__).resolve().parents[2] / "docs" / "compare.md").read_text()
     setup = compare.scenario()
     rows = [compare.summarise("calibration", c, s, compare.run(s, offset(compare.DEPTH_START), 1.0, setup, c))
-            for c in compare.CALIBRATIONS for s in ("cartesian", "polar", "pbvs")]
+            for c in compare.CALIBRATIONS for s in ("cartesian", "2.5d", "pbvs")]
     table = compare.calibration_table(rows).splitlines()
     assert table[0] in page
     for line in table[2:]:
