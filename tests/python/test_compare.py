@@ -291,7 +291,8 @@ def test_calibration_error_leaves_ibvs_at_the_goal_and_biases_pbvs(calibration):
     goal; PBVS given the true goal pose ends where its biased estimate equals it: a focal length s times the true
     one shows the fronto-parallel target at the goal's distance when it is at Z* / s (s = 0.8: 3.75 m), a principal
     point offset d (px) when it is shifted sideways by Z* d / f."""
-    rows = {s: compare.summarise("calibration", calibration, s, compare.run(s, start(**GENERAL), calibration=calibration))
+    rows = {s: compare.summarise("calibration", calibration, s,
+                                 compare.run(s, start(**GENERAL), calibration=calibration))
             for s in ("cartesian", "pbvs")}
     assert rows["cartesian"].reached, rows["cartesian"]
     scale, (du, dv), _ = compare.CALIBRATIONS[calibration]

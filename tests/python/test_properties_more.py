@@ -294,8 +294,8 @@ def test_miscalibrated_camera_any_believed_model_pixels_and_noise(scale, du, dv,
     finite pixels or NaN rows (a point lost), never an exception; the noise finite >= 0 or refused by name."""
     K = np.array([[800.0, 0.0, 240.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]])
     camera = ibvs.CameraModel.from_opencv(K, None, 480, 480)
-    believed = ibvs.CameraModel.from_opencv(np.array([[800 * scale, 0, 240 + du], [0, 800 * scale, 240 + dv], [0, 0, 1]]),
-                                            [k1, 0.0, 0.0, 0.0], 480, 480)
+    K_hat = np.array([[800 * scale, 0, 240 + du], [0, 800 * scale, 240 + dv], [0, 0, 1]])
+    believed = ibvs.CameraModel.from_opencv(K_hat, [k1, 0.0, 0.0, 0.0], 480, 480)
     try:
         sensor = sim.MiscalibratedCamera(camera, believed, noise=noise)
     except (ValueError, TypeError) as e:

@@ -245,8 +245,8 @@ def calibration_table(rows: Sequence[Row]) -> str:
     for scheme in dict.fromkeys(r.scheme for r in cal):
         by = {r.start: r for r in cal if r.scheme == scheme}
         mine = list(by.values())
-        lines.append(f"| `{scheme}` | {sum(r.converged for r in mine)}/{len(mine)} | "
-                     f"{sum(r.in_image for r in mine)}/{len(mine)} | " + " | ".join(_cell(by[x]) for x in labels) + " |")
+        counts = f"{sum(r.converged for r in mine)}/{len(mine)} | {sum(r.in_image for r in mine)}/{len(mine)}"
+        lines.append(f"| `{scheme}` | {counts} | " + " | ".join(_cell(by[x]) for x in labels) + " |")
     return "\n".join(lines)
 
 
@@ -390,8 +390,9 @@ def calibration_notes(rows: Sequence[Row]) -> str:
     text = ("- **Calibration errors** (the last table): the image-based laws' error is zero where the image is the "
             "taught one, so their final pose does not depend on the calibration: every one of their "
             f"{len(done)} converged runs ended within {max(r.final_translation_error for r in done) * 1000:.1f} mm "
-            f"of the goal, Cartesian IBVS under every error ({sum(r.converged for r in image if r.scheme == 'cartesian')}"
-            f"/{len(CALIBRATIONS)}). Their path and speed do depend on it, since their interaction matrix is "
+            f"of the goal, Cartesian IBVS under every error "
+            f"({sum(r.converged for r in image if r.scheme == 'cartesian')}/{len(CALIBRATIONS)}). Their path and "
+            "speed do depend on it, since their interaction matrix is "
             f"evaluated on the wrong points: {len(near)} runs were within 1 mm of the goal but not yet converged "
             "after 20 s")
     if stuck:
@@ -420,8 +421,8 @@ def calibration_notes(rows: Sequence[Row]) -> str:
     if mom:
         far = [r for r in mom if r.in_image and not r.reached]
         text += (f" `moments` reached the goal under {sum(r.reached for r in mom)} of the {len(mom)} calibrations"
-                 + (" and settled " + ", ".join(mm(r) for r in far) + " from it (with " + ", ".join(r.start for r in far)
-                    + ": the false goal of the previous bullet)" if far else "")
+                 + (" and settled " + ", ".join(mm(r) for r in far) + " from it (with "
+                    + ", ".join(r.start for r in far) + ": the false goal of the previous bullet)" if far else "")
                  + ": which equilibrium it reaches depends on its path, which the calibration changes.")
     return text
 
