@@ -291,16 +291,17 @@ def test_calibration_error_teaches_every_law_the_goal_image(calibration):
     at the pose the pose depth mode estimates from the goal's image, so their error is zero where the current
     image's estimate equals it, i.e. where the image is the goal's: all three end at the true goal, with the goal's
     image (pixels). The bias sits in that estimate of the goal, by what the estimate of a planar target does: a focal
-    length s times the true one shows the fronto-parallel target at the goal's distance when it is at Z* / s (s =
-    0.8: 3.75 m), a principal point offset d (px) when it is shifted sideways by Z* d / f."""
+    length s times the true one shows the fronto-parallel target at s Z* (s = 0.8: 2.4 m for 3 m; a PBVS given the
+    true goal pose would end where the estimate is Z*, at Z* / s), a principal point offset d (px) shifted sideways
+    by Z* d / f."""
     scale, (du, dv), _ = compare.CALIBRATIONS[calibration]
-    want = compare.DEPTH * abs(1 / scale - 1) if scale != 1 else compare.DEPTH * np.hypot(du, dv) / compare.FOCAL
+    want = compare.DEPTH * abs(scale - 1) if scale != 1 else compare.DEPTH * np.hypot(du, dv) / compare.FOCAL
     for s in ("cartesian", "pbvs", "2.5d"):
         r = compare.run(s, start(**GENERAL), calibration=calibration)
         row = compare.summarise("calibration", calibration, s, r)
         assert row.converged and row.reached, row
         assert row.final_translation_error < 1e-5 and row.final_rotation_error < 1e-5, row
-        last = np.asarray(r.history.measured)[r.history.frames - 1].reshape(-1, 2)
+        last = np.asarray(r.history.measured)[-1].reshape(-1, 2)
         np.testing.assert_allclose(last, np.asarray(r.measured_desired), rtol=0, atol=1e-3)  # pixels
     # the goal as the controller knows it: PlanarPose of the goal's image through the wrong model
     cdMo_hat, _, degenerate = ibvs.PlanarPose(np.asarray(r.target.points)).estimate(r.uv_desired)
