@@ -187,6 +187,18 @@ def test_depth_error_moves_the_pbvs_goal_not_the_image_based_one():
     assert rows["2.5d"].converged and rows["2.5d"].final_translation_error == pytest.approx(1.5, abs=0.05)
 
 
+@pytest.mark.parametrize("scale", [0.5, 2.0])
+def test_depth_error_taught_by_showing_leaves_pbvs_at_the_goal(scale):
+    """The pose depth mode scaled by s: the goal's pose (and 2.5-D's Z*) estimated from the goal's image carries the
+    same s as every frame's (teach by showing), so PBVS and 2.5-D head for the true goal whatever s (PBVS's
+    translation at the rate gain * s: with s = 0.5 it is 1e-5 m away after 20 s, exp(-10) of its start)."""
+    setup = compare.scenario().replace(depth="pose")
+    for s in ("pbvs", "pbvs_object", "2.5d"):
+        row = compare.summarise("", "", s, compare.run(s, start(**GENERAL), depth_scale=scale, setup=setup), scale)
+        assert row.reached and row.final_translation_error < 1e-4 and row.final_rotation_error < 1e-6, row
+        assert row.converged or scale < 1, row
+
+
 # ------------------------------------------------------------------ schemes, sweeps and the command
 
 
