@@ -22,7 +22,8 @@ Studies (the default size, 10 schemes x 83 starts, runs in about 15 s on one cor
   * calibration: the same start seen by a 480x480 pixel camera (focal length 800 px: the same +-0.3 image) whose
     controller believes wrong intrinsics (CALIBRATIONS: focal length scaled, principal point offset, radial
     distortion ignored) through ibvs.sim.MiscalibratedCamera, every scheme with the pose depth mode (depths and
-    pose from ibvs.PlanarPose on the points the wrong model gives); the pose schemes' goal pose is given (true).
+    pose from ibvs.PlanarPose on the points the wrong model gives); the pose schemes' goal pose (and 2.5-D's Z*)
+    is estimated the same way from the goal's image (teach by showing).
 Per run: converged (the task's error norm under TOLERANCE), reached (the camera within 1 mm and
 1 mrad of the goal), stayed in the image (no point left the +-0.3 image), camera retreat, camera path
 length, peak camera speeds, final pose error.
@@ -424,7 +425,8 @@ def calibration_notes(rows: Sequence[Row]) -> str:
     mom = [r for r in cal if r.scheme == "moments"]
     if mom:
         far = [r for r in mom if r.in_image and not r.reached]
-        text += (f" `moments` (its plane from the current estimate, its a* and Z* from the goal's) reached the goal under {sum(r.reached for r in mom)} of the {len(mom)} calibrations"
+        text += (" `moments` (its plane from the current estimate, its a* and Z* from the goal's) reached the goal "
+                 f"under {sum(r.reached for r in mom)} of the {len(mom)} calibrations"
                  + (" and settled " + ", ".join(mm(r) for r in far) + " from it (with "
                     + ", ".join(r.start for r in far) + ": the false goal of the previous bullet)" if far else "")
                  + ": which equilibrium it reaches depends on its path, which the calibration changes.")
