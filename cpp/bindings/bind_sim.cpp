@@ -16,6 +16,10 @@ using namespace ibvs;
 using namespace ibvs::sim;
 using namespace ibvs::py_convert;
 
+namespace ibvs::py_sources {
+void raise_kept(const Target& t);  // bind_sources.cpp: a Python feature source's exception, after a run
+}
+
 namespace {
 
 using RowMatrix4 = Eigen::Matrix<double, 4, 4, Eigen::RowMajor>;
@@ -638,6 +642,7 @@ it stops the episode and is raised by run().)")
         // A Python sensor's exception, raised instead of the episode's own error or result.
         const auto raise_sensor = [&] {
           if (py_sensor) py_sensor->raise();
+          ibvs::py_sources::raise_kept(target);  // and a Python feature source's (sim.FunctionSource)
         };
         AnyServo sv = servo_copy(servo);
         if (!robot.is_none()) {

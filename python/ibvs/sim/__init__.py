@@ -25,6 +25,7 @@ from __future__ import annotations
 from . import cases
 from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
 from .episode import MomentsSource, PbvsSource, Point25DSource
+from .episode import EllipseSource, FunctionSource, SegmentSource, plane_in_camera
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
 from .miscalibrated import MiscalibratedRobot
@@ -34,7 +35,9 @@ from .urdf import UrdfRobot, example_robot_urdf
 
 __all__ = [
     "Camera",
+    "EllipseSource",
     "FeatureSource",
+    "FunctionSource",
     "Gantry",
     "HandEyeData",
     "HandEyeScene",
@@ -50,6 +53,7 @@ __all__ = [
     "Result",
     "Robot",
     "RunStatus",
+    "SegmentSource",
     "Sensor",
     "Target",
     "UrdfRobot",
@@ -57,6 +61,7 @@ __all__ = [
     "collect_hand_eye",
     "example_robot_urdf",
     "hand_eye_scene",
+    "plane_in_camera",
     "pose",
     "pose_deg",
     "rotation",
