@@ -58,8 +58,17 @@ Eigen::Matrix3Xd rim(double r, int n) {
 }
 
 // The circle's goal: off-centre and tilted (a centred fronto-parallel circle is singular: rank 3).
-Pose circle_goal() { return make_pose(0.08, -0.05, 0.0, 0.15, -0.1, 0.0); }
-Pose circle_start() { return circle_goal() * make_pose(0.1, 0.05, -0.3, 0.1, 0.15, 0.3); }
+Pose circle_goal() { return make_pose(0.08, -0.05, 0.0, 0.08, -0.06, 0.0); }
+Pose circle_start() { return circle_goal() * make_pose(0.1, 0.05, -0.3, 0.03, 0.04, 0.3); }
+
+// An ellipse alone controls five components (its image is blind to the turn about the circle's axis):
+// wz left out, as docs/features.md says.
+Task ellipse_task() {
+  Task t;
+  t.add(EllipseFeature());
+  t.set_dof(Dof{true, true, true, true, true, false});
+  return t;
+}
 
 Target circle_target(double r) {
   Target t(rim(r, 8), Target::paper().pose);
@@ -153,12 +162,15 @@ void circle_measured_and_converges() {
   const Target t = circle_target(0.3);
   EpisodeOptions o = opts(30, 1e-6);
   o.latency = 1;
-  const auto r = run_episode(servo_of(Task().add(EllipseFeature()), 1.0), cam, t, circle_start(), circle_goal(), o);
+  const auto r = run_episode(servo_of(ellipse_task(), 1.0), cam, t, circle_start(), circle_goal(), o);
   ibvs_test::report(r.status.outcome == Outcome::converged, "free camera: circle converges", __FILE__, __LINE__,
                     to_string(r.status.outcome));
-  // five features fix the camera but for its rotation about the circle's axis
-  CHECK((row_pose(r.history, r.history.frames - 1).topRightCorner<3, 1>() - circle_goal().topRightCorner<3, 1>())
-            .norm() < 1e-3);
+  // the image fixes the camera's distance to the circle's centre and its angle to the axis, not its turn about it
+  const auto seen = [&](const Pose& T_wc) {
+    const Eigen::Vector3d c = T_wc.topRightCorner<3, 1>() - t.pose.topRightCorner<3, 1>();
+    return Eigen::Vector2d(c.norm(), std::acos(std::abs(c.dot(t.pose.block<3, 1>(0, 2))) / c.norm()));
+  };
+  CHECK((seen(row_pose(r.history, r.history.frames - 1)) - seen(circle_goal())).cwiseAbs().maxCoeff() < 1e-4);
   double worst = 0.0;
   for (int k = 0; k < r.history.frames - 1; k += 11) {
     const Pose cMo = se3_inverse(row_pose(r.history, std::max(0, k - 1))) * t.pose;
@@ -170,7 +182,7 @@ void circle_measured_and_converges() {
   for (DepthMode d : {DepthMode::desired, DepthMode::pose, DepthMode::estimated}) {
     EpisodeOptions od = opts(30, 1e-6);
     od.depth = d;
-    const auto rd = run_episode(servo_of(Task().add(EllipseFeature()), 1.0), cam, t, circle_start(), circle_goal(), od);
+    const auto rd = run_episode(servo_of(ellipse_task(), 1.0), cam, t, circle_start(), circle_goal(), od);
     ibvs_test::report(rd.status.outcome == Outcome::converged, "circle converges", __FILE__, __LINE__,
                       std::string(to_string(d)) + " " + to_string(rd.status.outcome));
   }

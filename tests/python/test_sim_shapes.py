@@ -17,7 +17,7 @@ import ibvs
 from ibvs import sim
 
 EDGES = [sim.SegmentSource(i, (i + 1) % 4) for i in range(4)]
-CIRCLE_GOAL = sim.pose(t=(0.08, -0.05, 0.0), r=(0.15, -0.1, 0.0))  # the circle off-centre and tilted: rank 5
+CIRCLE_GOAL = sim.pose(t=(0.08, -0.05, 0.0), r=(0.08, -0.06, 0.0))  # the circle off-centre and tilted: rank 5
 
 
 def segment_task(n=4, normalized=True, layout=None):
@@ -84,30 +84,45 @@ def test_segments_panda_converge():
     assert np.all(r.history.q >= case.robot.q_min) and np.all(r.history.q <= case.robot.q_max)
 
 
+def ellipse_servo(gain=1.0):
+    """An ellipse task controlling five components: the circle's image is blind to the camera turning about the
+    circle's axis (a sixth would make J 5x6, singular), so wz is left out (docs/features.md)."""
+    task = ellipse_task()
+    task.dof = ["Tx", "Ty", "Tz", "wx", "wy"]
+    return ibvs.Servo(task, gain=gain)
+
+
+def seen_from(T_wc, target):
+    """The camera centre's distance from the circle's centre and its angle from the circle's axis: what the
+    circle's image fixes."""
+    c = T_wc[:3, 3] - target.pose[:3, 3]
+    return np.linalg.norm(c), np.arccos(abs(c @ target.pose[:3, 2]) / np.linalg.norm(c))
+
+
 @pytest.mark.parametrize("depth", ["exact", "desired", "pose", "estimated"])
 def test_circle_free_camera_converges(depth):
     case = sim.cases.general_motion()
     target = circle_target(case.target.pose, 0.3)
-    start = CIRCLE_GOAL @ sim.pose(t=(0.1, 0.05, -0.3), r=(0.1, 0.15, 0.3))
-    r = sim.run(ibvs.Servo(ellipse_task(), gain=1.0), case.camera, target, start, CIRCLE_GOAL, duration=30,
-                depth=depth, tolerance=1e-6)
+    start = CIRCLE_GOAL @ sim.pose(t=(0.1, 0.05, -0.3), r=(0.03, 0.04, 0.3))
+    r = sim.run(ellipse_servo(), case.camera, target, start, CIRCLE_GOAL, duration=30, depth=depth, tolerance=1e-6)
     assert r.converged, r
-    # five features fix the camera but for its rotation about the circle's axis: the error vanishes and the
-    # camera centre is at the goal's
     assert r.history.error_norm[-1] < 1e-6
-    assert np.linalg.norm(r.history.pose[-1][:3, 3] - CIRCLE_GOAL[:3, 3]) < 1e-3
+    # the camera sees the circle from the goal's distance and angle (its turn about the axis is free)
+    np.testing.assert_allclose(seen_from(r.history.pose[-1], target), seen_from(CIRCLE_GOAL, target), atol=1e-4)
 
 
-def test_circle_gantry_converges():
+def test_circle_with_a_cross_gantry_converges():
+    """A disc with two diameters marked on it (an ellipse and two segments) on the gantry: the diameters fix
+    the turn about the axis; the camera reaches the goal pose."""
     case = sim.cases.gantry_general_motion()
-    target = sim.Target(rim(0.05, 8), case.target.pose, features=[sim.EllipseSource((0, 0, 0), (0, 0, 1), 0.05)]
-                        + EDGES[:1])
-    task = ellipse_task()
-    task.add(ibvs.SegmentFeature())  # a rim chord: fixes the rotation about the axis
+    target = sim.Target(rim(0.05, 8), case.target.pose,
+                        features=[sim.EllipseSource((0, 0, 0), (0, 0, 1), 0.05), sim.SegmentSource(0, 4),
+                                  sim.SegmentSource(2, 6)])
+    task = ellipse_task().add(ibvs.SegmentFeature()).add(ibvs.SegmentFeature())
     r = sim.run(ibvs.Servo(task, gain=2.0), case.camera, target, case.start, case.goal, robot=case.robot,
                 duration=case.duration, tolerance=1e-5)
     assert r.converged, r
-    assert np.degrees(r.metrics.final_rotation_error) < 0.1 and r.metrics.final_translation_error < 1e-3
+    assert np.degrees(r.metrics.final_rotation_error) < 0.01 and r.metrics.final_translation_error < 1e-4
 
 
 def test_segment_measurements_are_segment_feature_measure():
@@ -144,9 +159,8 @@ def test_circle_image_is_the_ellipse_of_its_projected_rim():
     case = sim.cases.general_motion()
     radius = 0.3
     target = circle_target(case.target.pose, radius)
-    start = CIRCLE_GOAL @ sim.pose(t=(0.1, 0.05, -0.3), r=(0.3, 0.25, 0.5))
-    r = sim.run(ibvs.Servo(ellipse_task(), gain=1.0), case.camera, target, start, CIRCLE_GOAL, duration=2,
-                latency=1)
+    start = CIRCLE_GOAL @ sim.pose(t=(0.1, 0.05, -0.3), r=(0.03, 0.04, 0.5))
+    r = sim.run(ellipse_servo(), case.camera, target, start, CIRCLE_GOAL, duration=2, latency=1)
     h = r.history
     dense = rim(radius, 3600)
     worst = 0.0
@@ -178,10 +192,10 @@ def test_circle_image_is_the_ellipse_of_its_projected_rim():
 def test_circle_plane_from_each_depth_mode():
     case = sim.cases.general_motion()
     target = circle_target(case.target.pose, 0.3)
-    start = CIRCLE_GOAL @ sim.pose(t=(0.1, 0.05, -0.3), r=(0.1, 0.15, 0.3))
+    start = CIRCLE_GOAL @ sim.pose(t=(0.1, 0.05, -0.3), r=(0.03, 0.04, 0.3))
     for depth, scale in (("exact", 1.3), ("desired", 1.0)):
-        r = sim.run(ibvs.Servo(ellipse_task(), gain=1.0), case.camera, target, start, CIRCLE_GOAL, duration=0.5,
-                    depth=depth, depth_scale=scale)
+        r = sim.run(ellipse_servo(), case.camera, target, start, CIRCLE_GOAL, duration=0.5, depth=depth,
+                    depth_scale=scale)
         for k in (0, len(r.history) // 2):
             T = r.goal if depth == "desired" else r.history.pose[k]
             T_co = camera_from_world(T) @ target.pose
@@ -227,13 +241,12 @@ def test_bad_inputs_refused():
     with pytest.raises(ValueError, match=r"points i = 0 and j = 4 coincide"):
         sim.Target(twice, case.target.pose, features=[sim.SegmentSource(0, 4)])
     with pytest.raises(ValueError, match="cannot measure the task's block 0"):
-        sim.run(ibvs.Servo(ellipse_task()), case.camera, case.target.with_features(EDGES[:1]), case.start,
-                case.goal)
+        sim.run(ellipse_servo(), case.camera, case.target.with_features(EDGES[:1]), case.start, case.goal)
     # a circle seen edge-on at the goal (the camera in its plane) cannot be measured
     target = circle_target(case.target.pose, 0.3)
     edge_on = np.array([[0, 0, 1, -2.0], [1, 0, 0, 0], [0, 1, 0, 3.0], [0, 0, 0, 1]], dtype=float)
     with pytest.raises(ValueError, match=r"sources\[0\] \(circle.*cannot be measured at the goal"):
-        sim.run(ibvs.Servo(ellipse_task()), case.camera, target, case.start, edge_on)
+        sim.run(ellipse_servo(), case.camera, target, case.start, edge_on)
 
 
 def test_source_that_stops_measuring_is_lost_feature():
@@ -248,8 +261,7 @@ def test_source_that_stops_measuring_is_lost_feature():
         return ibvs.EllipseFeature.project_circle(cMo[:3, 3], cMo[:3, 2], 0.3) if frame < 5 else None
 
     t = target.with_features([sim.FunctionSource(ibvs.EllipseFeature(), until_5)])
-    r = sim.run(ibvs.Servo(ellipse_task(), gain=1.0), case.camera, t, CIRCLE_GOAL @ sim.pose(t=(0.05, 0, 0)),
-                CIRCLE_GOAL, duration=1)
+    r = sim.run(ellipse_servo(), case.camera, t, CIRCLE_GOAL @ sim.pose(t=(0.05, 0, 0)), CIRCLE_GOAL, duration=1)
     assert r.status.outcome == "lost_feature" and r.status.feature == 0 and r.status.frame == 5
     assert calls == [-1, 0, 1, 2, 3, 4, 5]
 
@@ -266,17 +278,17 @@ def test_function_source_errors_are_raised():
     t = target.with_features([sim.FunctionSource(ibvs.EllipseFeature(), boom)])
     start = CIRCLE_GOAL @ sim.pose(t=(0.05, 0, 0))
     with pytest.raises(RuntimeError, match="boom at 3"):
-        sim.run(ibvs.Servo(ellipse_task()), case.camera, t, start, CIRCLE_GOAL, duration=1)
+        sim.run(ellipse_servo(), case.camera, t, start, CIRCLE_GOAL, duration=1)
     t = target.with_features([sim.FunctionSource(ibvs.EllipseFeature(), lambda *a: np.zeros(5))])
     with pytest.raises(ValueError, match="must return 8 values"):
-        sim.run(ibvs.Servo(ellipse_task()), case.camera, t, start, CIRCLE_GOAL, duration=1)
+        sim.run(ellipse_servo(), case.camera, t, start, CIRCLE_GOAL, duration=1)
     with pytest.raises(TypeError, match="measure must be callable"):
         sim.FunctionSource(ibvs.EllipseFeature(), 3)
     with pytest.raises(TypeError, match="feature must be an ibvs.Feature"):
         sim.FunctionSource("ellipse", boom)
     assert repr(sim.FunctionSource(ibvs.EllipseFeature(), boom)) == "FunctionSource(ellipse)"
     with pytest.raises(ValueError, match="cannot measure the task's block 0"):
-        sim.run(ibvs.Servo(segment_task(1)), case.camera, t, start, CIRCLE_GOAL, duration=1)
+        sim.run(ibvs.Servo(segment_task(1), gain=1.0), case.camera, t, start, CIRCLE_GOAL, duration=1)
 
 
 def test_plane_in_camera():

@@ -2,12 +2,17 @@
 
 A BlobMeasure renders the target as one white blob (Renderer kind "disc": a 3-D circle, the disc whose
 rim holds the target's points; kind "polygon": the planar polygon whose vertices they are) at the pose
-the simulator gives, thresholds the image half-way between the plate and the blob, and measures the
-blob with OpenCV's moments:
-  * "ellipse": cv2.moments(mask, binaryImage=True) -> ibvs.EllipseFeature.measure_moments (centroid and
-    centred second-order moments, pixels -> normalised through the camera's px, py, u0, v0);
-  * "moments": ibvs.vision.image_moments(mask) (cv2.moments to order 3, order 4 summed, normalised) ->
-    ibvs.MomentsFeature.measure, with the goal's area a* and depth Z* taken from the goal's image.
+the simulator gives and measures the blob's grey-level moments with OpenCV: each pixel weighs its
+coverage by the blob, (I - plate) / (blob - plate) clipped to [0, 1] (the renderer's edges are
+anti-aliased), the plate's pixels nothing:
+  * "ellipse": cv2.moments(weights) -> ibvs.EllipseFeature.measure_moments (centroid and centred
+    second-order moments, pixels -> normalised through the camera's px, py, u0, v0);
+  * "moments": ibvs.vision.image_moments(weights, weights=True) (cv2.moments to order 3, order 4 summed,
+    normalised) -> ibvs.MomentsFeature.measure, with the goal's area a* and depth Z* from the goal's image.
+Grey-level moments rather than a thresholded mask's: a binary mask's moments move with the pixel grid,
+and the moments task's invariants (its x/y rotation rows, weakly sensitive) then let the camera wander
+centimetres along their weak direction (tests/python/test_vision_blobs.py; about 10 times less with
+the coverage weights).
 The plane (A, B, C) of the blob (the target's z = 0 plane) comes from the pose the depth mode gives
 (ibvs.sim.plane_in_camera). blob_source wraps it in an ibvs.sim.FunctionSource for sim.Target(features=...).
 
@@ -19,7 +24,8 @@ pixels (CameraModel.normalized, the paper's free camera) is imaged by ibvs.visio
 640x480 pinhole.
 
 The blob is lost (the episode's lost_feature) when it is empty, touches the image border (its moments
-would be those of a cut blob) or the depth pose is unknown.
+would be those of a cut blob; judged on the image thresholded half-way between plate and blob) or the
+depth pose is unknown.
 """
 
 from __future__ import annotations
@@ -52,7 +58,7 @@ class BlobMeasure:
       feature   "ellipse" or "moments"
       renderer_options  Renderer's blur, noise, seed (exposure needs the twist, which a source is not given)
     Calling it as measure(frame, cMo, depth_pose, goal, uv, depth) renders the blob at cMo and returns the
-    block's measurement, or None (lost). image(cMo) and mask(image) give the intermediate steps.
+    block's measurement, or None (lost). image(cMo) and weights(image) give the intermediate steps.
     """
 
     def __init__(self, camera, target, feature: str = "ellipse", **renderer_options):
@@ -75,7 +81,6 @@ class BlobMeasure:
             m = cam.project(xy, invalid="nan")
             m[~np.isfinite(m).all(1)] = -1e6
             self._undistort = (m[:, 0].reshape(H, W).astype(np.float32), m[:, 1].reshape(H, W).astype(np.float32))
-        self.threshold = 0.5 * (Renderer.PLATE + Renderer.DOT)
         self._target_pose = np.asarray(target.pose, dtype=np.float64)
         self._goal: Optional[tuple] = None  # (goal pose, a*, Z*) of the moments
 
@@ -84,27 +89,29 @@ class BlobMeasure:
         cMo = np.asarray(cMo, dtype=np.float64)
         return self.renderer.render(self._target_pose @ np.linalg.inv(cMo))
 
-    def mask(self, image) -> np.ndarray:
-        """The blob (uint8 0/1) in the undistorted (pinhole) image of `image`."""
+    def weights(self, image) -> np.ndarray:
+        """Each pixel's coverage by the blob (float32 in [0, 1]) in the undistorted (pinhole) image of `image`."""
         cv2 = opencv()
-        img = np.asarray(image)
+        img = np.asarray(image).astype(np.float32)
         if self._undistort is not None:
             img = cv2.remap(img, *self._undistort, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                            borderValue=0)
-        return (img > self.threshold).astype(np.uint8)
+                            borderValue=float(Renderer.PLATE))
+        w = (img - np.float32(Renderer.PLATE)) * np.float32(1.0 / (Renderer.DOT - Renderer.PLATE))
+        return np.clip(w, 0.0, 1.0, out=w)
 
     def __call__(self, frame, cMo, depth_pose, goal, uv, depth):
         cv2 = opencv()
-        mask = self.mask(self.image(cMo))
-        if not mask.any() or mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any():
+        w = self.weights(self.image(cMo))
+        inside = w > 0.5
+        if not inside.any() or inside[0].any() or inside[-1].any() or inside[:, 0].any() or inside[:, -1].any():
             return None  # no blob, or a blob cut by the image border
         if not np.isfinite(depth_pose).all():
             return None
         try:
             plane = _sim.plane_in_camera(depth_pose)
             if self.feature == "ellipse":
-                return EllipseFeature.measure_moments(cv2.moments(mask, binaryImage=True), plane, self._pinhole)
-            mo = image_moments(mask, self._pinhole)
+                return EllipseFeature.measure_moments(cv2.moments(w), plane, self._pinhole)
+            mo = image_moments(w, self._pinhole, weights=True)
             if frame < 0 or self._goal is None or not np.array_equal(self._goal[0], goal):
                 if frame >= 0:  # the goal is taught first (frame -1); without it, no a*, Z*
                     return None
