@@ -296,7 +296,8 @@ void bind_sim(py::module_& m) {
 A Target carries one source per feature block of the servo's Task, in the Task's order
 (Target(points, features=[...])). Each frame a source writes its block's measurement from the true
 pose of the target, the controller's points and what the depth mode knows (docs/simulator.md,
-"Feature sources"). The kinds: LineSource; others are added in C++ (ibvs/sim/source.hpp).)")
+"Feature sources"). The kinds: LineSource, SegmentSource, EllipseSource, MomentsSource, PbvsSource,
+Point25DSource, and FunctionSource (a Python callable's); others are added in C++ (ibvs/sim/source.hpp).)")
       .def_property_readonly("size", &FeatureSource::size, "Values in one measurement (its Feature's size).")
       .def("__repr__", [](const FeatureSource& f) { return "<ibvs feature source " + f.describe() + ">"; });
 

@@ -106,7 +106,7 @@ class FunctionSource final : public sim::FeatureSource {
   std::string describe() const override { return "function(" + feature_->describe() + ")"; }
   int size() const noexcept override { return feature_->size(); }
   bool fits(const Feature& f) const noexcept override {
-    return f.size() == feature_->size() && f.rows() == feature_->rows() && typeid(f) == typeid(*feature_);
+    return f.size() == feature_->size() && typeid(f) == typeid(*feature_);  // the same measurement
   }
   bool measure(const sim::SourceFrame& f, double* m) const noexcept override {
     if (fn_->error) return false;
