@@ -56,7 +56,9 @@ class BlobMeasure:
       target    an ibvs.sim.Target: its points on a circle (feature "ellipse": the disc they are the rim of)
                 or the vertices of a polygon, in order (feature "moments"), in its z = 0 plane
       feature   "ellipse" or "moments"
-      renderer_options  Renderer's blur, noise, seed (exposure needs the twist, which a source is not given)
+      renderer_options  Renderer's blur, noise, seed (exposure needs the twist, which a source is not given;
+                with noise, plate pixels brighter than the plate weigh a little: the moments are biased by it,
+                which the tests do not cover)
     Calling it as measure(frame, cMo, depth_pose, goal, uv, depth) renders the blob at cMo and returns the
     block's measurement, or None (lost). image(cMo) and weights(image) give the intermediate steps.
     """
