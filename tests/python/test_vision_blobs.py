@@ -90,7 +90,8 @@ def test_servo_on_the_rendered_ellipse_converges():
                 target.with_features([sim.EllipseSource((0, 0, 0), (0, 0, 1), 0.3)]), START, GOAL, duration=15,
                 tolerance=1e-4)
     assert g.converged
-    d_image, d_geometry = seen_from(r.history.pose[-1]) - seen_from(GOAL), seen_from(g.history.pose[-1]) - seen_from(GOAL)
+    d_image = seen_from(r.history.pose[-1]) - seen_from(GOAL)
+    d_geometry = seen_from(g.history.pose[-1]) - seen_from(GOAL)
     print(f"image: converged at frame {r.status.frame} (geometric: {g.status.frame}), centroid error "
           f"{np.abs(e[:2]).max() * F:.3f} px, distance to the circle {1e3 * d_image[0]:.2f} mm, angle to its axis "
           f"{np.degrees(d_image[1]):.3f} deg from the goal's")
@@ -107,7 +108,8 @@ def test_servo_on_the_rendered_polygon_moments_converges():
     t = target.with_features([vision.blob_source(cam, target, "moments")])
     r = sim.run(schemes.moments(1.0), cam, t, start, np.eye(4), duration=15, tolerance=1e-5)
     assert r.converged, r
-    print(f"image: converged at frame {r.status.frame}, pose error {1e3 * r.metrics.final_translation_error:.2f} mm, "
+    print(f"image: converged at frame {r.status.frame}, "
+          f"pose error {1e3 * r.metrics.final_translation_error:.2f} mm, "
           f"{np.degrees(r.metrics.final_rotation_error):.3f} deg")
     assert r.metrics.final_translation_error < 5e-3 and np.degrees(r.metrics.final_rotation_error) < 0.1
     # the image's measurement against the polygon's exact moments (MomentsSource of its vertices) at the goal

@@ -82,7 +82,7 @@ class BlobMeasure:
             xy = np.stack([(uu.ravel() - cam.u0) / cam.px, (vv.ravel() - cam.v0) / cam.py], 1)
             m = cam.project(xy, invalid="nan")
             m[~np.isfinite(m).all(1)] = -1e6
-            self._undistort = (m[:, 0].reshape(H, W).astype(np.float32), m[:, 1].reshape(H, W).astype(np.float32))
+            self._undistort = tuple(m[:, c].reshape(H, W).astype(np.float32) for c in (0, 1))
         self._target_pose = np.asarray(target.pose, dtype=np.float64)
         self._goal: Optional[tuple] = None  # (goal pose, a*, Z*) of the moments
 
@@ -92,7 +92,7 @@ class BlobMeasure:
         return self.renderer.render(self._target_pose @ np.linalg.inv(cMo))
 
     def weights(self, image) -> np.ndarray:
-        """Each pixel's coverage by the blob (float32 in [0, 1]) in the undistorted (pinhole) image of `image`."""
+        """Each pixel's coverage by the blob (float32 in [0, 1]) in the undistorted (pinhole) image."""
         cv2 = opencv()
         img = np.asarray(image).astype(np.float32)
         if self._undistort is not None:
@@ -105,7 +105,8 @@ class BlobMeasure:
         cv2 = opencv()
         w = self.weights(self.image(cMo))
         inside = w > 0.5
-        if not inside.any() or inside[0].any() or inside[-1].any() or inside[:, 0].any() or inside[:, -1].any():
+        border = inside[0].any() or inside[-1].any() or inside[:, 0].any() or inside[:, -1].any()
+        if border or not inside.any():
             return None  # no blob, or a blob cut by the image border
         if not np.isfinite(depth_pose).all():
             return None

@@ -113,7 +113,8 @@ class Renderer:
         elif kind in ("disc", "polygon"):
             self.dot_radius = None
             self._disc = _disc_of(xy) if kind == "disc" else None
-            if kind == "polygon" and (len(xy) < 3 or abs(_shoelace(xy)) <= 1e-12 * max(np.ptp(xy), 1e-300) ** 2):
+            flat = len(xy) < 3 or abs(_shoelace(xy)) <= 1e-12 * max(np.ptp(xy), 1e-300) ** 2
+            if kind == "polygon" and flat:
                 raise ValueError("target: a polygon needs 3 or more points enclosing a nonzero area")
             margin = 0.15 * max(float(np.ptp(xy, axis=0).max()), 1e-9)
             lo, hi = xy.min(0) - margin, xy.max(0) + margin
