@@ -1,0 +1,493 @@
+"""The wide-field study of issue 23: a 220-degree equidistant fisheye servoed on perspective features
+(normalised image points: Cartesian, polar, stacked) and on features on the sphere (spherical
+Cartesian, spherical-polar, both stacked), on the same free-camera starts.
+
+    python -m ibvs.study.wide --out DIR [--rotations 19] [--general 200] [--docs]
+    ibvs wide --out DIR ...
+
+Camera: an equidistant fisheye without distortion whose image circle (110 degrees off the axis, a
+220-degree lens) fills a square sensor; the paper's square target (+-0.25 m, 3 m in front of the goal
+camera). Every scheme measures the target's pixels through the lens model: the perspective schemes
+normalise them (CameraModel.normalize: x = X/Z, which exists only in front of the camera, below 90
+degrees off the axis), the spherical ones lift them to bearings (ibvs.spherical_measurements).
+
+Starts: the paper's free-camera cases (x translation, half-turn about the optical axis, general
+motion), rotations about the optical axis from 0 to 180 degrees, and `general` random starts whose
+camera is tilted by up to 100 degrees (the target up to about 105 degrees off the axis). A start with a
+point at 90 degrees or more off the axis has no normalised coordinates, and ibvs refuses them beyond
+|x|, |y| = 10 (84 degrees): the perspective schemes cannot see it ("cannot_see", counted, not run). Per run: converged (error norm under TOLERANCE),
+reached (within 1 mm and 1 mrad of the goal), stayed in view, camera retreat, path length, peak
+speeds.
+
+The loop is the simulator's (ibvs.sim.run) for a free-flying camera — the twist held for a frame,
+T <- T exp(v dt), the same stopping rules — written here in Python because the simulator measures
+perspective points only (it ends a run when a point's depth falls below 1 mm);
+tests/python/test_wide.py checks that it reproduces ibvs.sim.run on the perspective schemes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+import ibvs
+
+from .. import sim
+from . import schemes
+from .compare import wrap
+from .scenario import DEFAULTS, offset
+
+#: The lens's half field of view (radians): its image circle.
+HALF_FOV = math.radians(110.0)
+#: The square sensor's side (pixels); the image circle touches its sides.
+SENSOR = 1024
+GAIN = 1.0
+FPS = 60.0
+DURATION = 30.0
+TOLERANCE = 1e-6
+REACHED = (1e-3, 1e-3)  # metres, radians
+#: ibvs's domain of normalised coordinates, |X/Z|, |Y/Z| <= 10 (ibvs::max_normalized_coordinate, limits.hpp:
+#: 84 to 86 degrees off the axis); beyond it, and behind the image plane, a perspective feature is refused.
+PERSPECTIVE_LIMIT = 10.0
+MAX_DISTANCE_RATIO = 10.0  # diverged beyond this multiple of the start distance to the target (the simulator's 10)
+MAX_ERROR_RATIO = 100.0
+STANDOFF = 0.05  # collision within this multiple of the goal depth of the target's centre
+#: The random starts: rotation about the optical axis, tilt (its direction uniform) and translation.
+RANGES = {"rz_deg": (0.0, 180.0), "tilt_deg": (0.0, 100.0), "tilt_dir_deg": (0.0, 360.0),
+          "tx": (-0.2, 0.2), "ty": (-0.2, 0.2), "tz": (-0.5, 0.5)}
+#: A conventional perspective camera for comparison: 90 degrees across (45 off the axis).
+PINHOLE_HALF_FOV = math.radians(45.0)
+
+PERSPECTIVE = ("cartesian", "polar", "stacked")
+SPHERICAL = ("spherical", "spherical_polar", "spherical_stacked")
+SCHEMES = PERSPECTIVE + SPHERICAL
+NAMES = {"cartesian": "IBVS (x, y)", "polar": "IBVS-P (r, θ)", "stacked": "stacked (x, y, r, θ)",
+         "spherical": "spherical (bx, by, bz)", "spherical_polar": "spherical-polar (β, φ)",
+         "spherical_stacked": "spherical stacked (b, β, φ)"}
+#: Outcomes that mean a point went out of the features' domain.
+OUT_OF_VIEW = ("left_image", "left_perspective")
+
+
+def camera() -> ibvs.CameraModel:
+    """The study's lens: equidistant (r = f theta), no distortion, the 110-degree circle inscribed in a
+    SENSOR x SENSOR image."""
+    f = (SENSOR / 2) / HALF_FOV
+    c = SENSOR / 2
+    return ibvs.CameraModel.from_opencv(np.array([[f, 0.0, c], [0.0, f, c], [0.0, 0.0, 1.0]]), [0.0] * 4, SENSOR,
+                                        SENSOR, fisheye=True, fps=FPS)
+
+
+def target_points() -> np.ndarray:
+    """The paper's square (world frame, metres): (+-0.25, +-0.25, 3)."""
+    return np.asarray(sim.Target.paper().world_points(), dtype=float)
+
+
+def _task(kinds) -> ibvs.Servo:
+    task = ibvs.Task()
+    for _ in range(4):
+        for k in kinds:
+            task.add(k())
+    return ibvs.Servo(task, gain=GAIN, damping=0.0)
+
+
+def make(scheme: str):
+    """A servo of `scheme` for the square's four points."""
+    if scheme in PERSPECTIVE:
+        return schemes.make(scheme, GAIN, 4)
+    kinds = {"spherical": (ibvs.SphericalPointFeature,), "spherical_polar": (ibvs.SphericalPolarFeature,),
+             "spherical_stacked": (ibvs.SphericalPointFeature, ibvs.SphericalPolarFeature)}
+    if scheme not in kinds:
+        raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
+    return _task(kinds[scheme])
+
+
+def off_axis(P: np.ndarray) -> np.ndarray:
+    """The angle (radians) of camera-frame points (N, 3) off the optical axis."""
+    return np.arctan2(np.hypot(P[:, 0], P[:, 1]), P[:, 2])
+
+
+def in_camera(T_wc: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """World points (N, 3) in the frame of the camera at T_wc (world <- camera)."""
+    R, t = T_wc[:3, :3], T_wc[:3, 3]
+    return (points - t) @ R
+
+
+def perspective_sees(P: np.ndarray) -> bool:
+    """Whether the perspective features of camera-frame points P (N, 3) exist: every point in front of the
+    camera (Z > 0) with |X/Z|, |Y/Z| <= PERSPECTIVE_LIMIT."""
+    return bool(np.all(np.maximum(np.abs(P[:, 0]), np.abs(P[:, 1])) <= PERSPECTIVE_LIMIT * P[:, 2]))
+
+
+def cannot_see(T_wc: np.ndarray) -> bool:
+    """Whether the perspective schemes cannot see the target from pose T_wc (perspective_sees)."""
+    return not perspective_sees(in_camera(T_wc, target_points()))
+
+
+@dataclass
+class Trace:
+    """A run's history: camera poses (K, 4, 4), twists (K, 6), pixels (K, 4, 2), error norms (K,)."""
+
+    pose: np.ndarray
+    twist: np.ndarray
+    pixels: np.ndarray
+    error_norm: np.ndarray
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a run did (the metrics of ibvs.sim.Metrics; retreat measured as a distance, see run())."""
+
+    outcome: str
+    frames: int
+    camera_retreat: float
+    axial_retreat: float
+    path_length: float
+    peak_linear_speed: float
+    peak_angular_speed: float
+    final_translation_error: float
+    final_rotation_error: float
+
+
+def _measure(scheme: str, cam, P: np.ndarray):
+    """(pixels, the servo's inputs) of camera-frame points P through the lens."""
+    pixels = cam.from_bearing(P)
+    if scheme in PERSPECTIVE:
+        return pixels, (cam.normalize(pixels), P[:, 2].copy())
+    m = ibvs.spherical_measurements(cam, pixels, np.linalg.norm(P, axis=1))
+    return pixels, (np.repeat(m, 2, axis=0) if scheme == "spherical_stacked" else m).ravel()
+
+
+def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, duration: float = DURATION,
+        tolerance: float = TOLERANCE, trace: bool = False):
+    """One free-camera run of `scheme` from `start` (4x4 world <- camera) to the goal (the identity).
+
+    Returns (Outcome, Trace or None). The rules of ibvs.sim.run, in its order per frame: diverged when
+    the distance to the target's centre exceeds MAX_DISTANCE_RATIO times its start value; collision
+    or target_backside (the camera within STANDOFF of the target or behind its plane); left_image
+    when a point is beyond the lens's circle (HALF_FOV); for the perspective schemes left_perspective
+    when a point leaves their domain (perspective_sees; cannot_see at frame 0: not run); converged when the error norm
+    is below tolerance; singular, diverged (error norm beyond MAX_ERROR_RATIO times its start) or
+    timeout. camera_retreat: the largest increase of the camera's distance to the target's centre over
+    its start value (the simulator's retreat is along the optical axis, which is meaningless when the
+    target starts beside or behind the camera: that one is axial_retreat)."""
+    cam = cam or camera()
+    points = target_points()
+    centre = points.mean(axis=0)
+    goal = np.eye(4)
+    servo = make(scheme)
+    spherical = scheme in SPHERICAL
+    _, want = _measure(scheme, cam, in_camera(goal, points))
+    frames = int(round(duration * cam.fps))
+    dt = 1.0 / cam.fps
+    standoff = STANDOFF * in_camera(goal, centre[None])[0, 2]
+    T = np.array(start, dtype=float)
+    both = np.vstack([points, centre])  # the points, then the centre
+    cos_fov = math.cos(HALF_FOV)
+    none = np.zeros((0, 2))
+    poses, twists, pixel_log, norms = [], [], [], []
+    d0 = a0 = e0 = 0.0
+    retreat = axial = path = 0.0
+    outcome, k = "timeout", 0
+    for k in range(frames):
+        Q = (both - T[:3, 3]) @ T[:3, :3]  # camera frame
+        P = Q[:4]
+        d = math.sqrt(Q[4] @ Q[4])
+        if k == 0:
+            d0, a0 = d, Q[4, 2]
+        retreat, axial = max(retreat, d - d0), max(axial, Q[4, 2] - a0)
+        if trace:
+            poses.append(T.copy())
+        if not (d <= MAX_DISTANCE_RATIO * d0):  # also NaN
+            outcome = "diverged"
+            break
+        if T[2, 3] >= centre[2]:
+            outcome = "target_backside"
+            break
+        if d < standoff:
+            outcome = "collision"
+            break
+        if (P[:, 2] <= cos_fov * np.sqrt((P * P).sum(axis=1))).any():  # at or beyond HALF_FOV
+            outcome = "left_image"
+            break
+        if not spherical and not perspective_sees(P):
+            outcome = "cannot_see" if k == 0 else "left_perspective"
+            break
+        pixels, got = _measure(scheme, cam, P)
+        if spherical:
+            r = servo.update(none, none[:, 0], none, measurements=got, measurements_desired=want)
+        else:
+            r = servo.update(got[0], got[1], want[0], want[1])
+        v, e, status = r.velocity, r.error_norm, r.status
+        twists.append(v)
+        if trace:
+            pixel_log.append(pixels)
+            norms.append(e)
+        if k == 0:
+            e0 = e
+        if status == ibvs.Status.invalid_input or not (math.isfinite(e) and np.isfinite(v).all()):
+            outcome = "diverged"
+            break
+        if e < tolerance:
+            outcome = "converged"
+            break
+        if status == ibvs.Status.singular:
+            outcome = "singular"
+            break
+        if e > MAX_ERROR_RATIO * e0:
+            outcome = "diverged"
+            break
+        if k == frames - 1:
+            break
+        T_next = T @ ibvs.se3_exp(v * dt)
+        step = T_next[:3, 3] - T[:3, 3]
+        path += math.sqrt(step @ step)
+        T = T_next
+    tw = np.asarray(twists).reshape(-1, 6)
+    cos = (np.trace(T[:3, :3]) - 1.0) / 2.0
+    out = Outcome(outcome, k + 1, retreat, axial, path,
+                  float(np.max(np.linalg.norm(tw[:, :3], axis=1))) if len(tw) else 0.0,
+                  float(np.max(np.linalg.norm(tw[:, 3:], axis=1))) if len(tw) else 0.0,
+                  float(np.linalg.norm(T[:3, 3])), math.acos(min(1.0, max(-1.0, cos))) if np.isfinite(cos) else math.nan)
+    if not trace:
+        return out, None
+    return out, Trace(np.asarray(poses), tw, np.asarray(pixel_log).reshape(-1, 4, 2), np.asarray(norms))
+
+
+@dataclass(frozen=True)
+class Row:
+    """One run: the study, the start, the scheme and what it did."""
+
+    study: str
+    start: str
+    scheme: str
+    centre_angle_deg: float  # the target's centre off the axis at the start
+    max_angle_deg: float  # its farthest point off the axis at the start
+    cannot_see: bool  # a point outside the perspective domain at the start (perspective_sees)
+    beyond_pinhole: bool  # a point beyond 45 degrees at the start: a 90-degree perspective camera would not see it
+    outcome: str
+    converged: bool
+    reached: bool
+    in_view: bool
+    camera_retreat: float
+    axial_retreat: float
+    path_length: float
+    peak_linear_speed: float
+    peak_angular_speed: float
+    final_translation_error: float
+    final_rotation_error: float
+
+
+def summarise(study: str, start: str, scheme: str, T0: np.ndarray, o: Outcome) -> Row:
+    """The Row of one run from its start pose and Outcome."""
+    P = in_camera(T0, target_points())
+    a = off_axis(P)
+    reached = bool(o.final_translation_error < REACHED[0] and o.final_rotation_error < REACHED[1])
+    return Row(study, start, scheme, math.degrees(off_axis(P.mean(axis=0)[None])[0]), math.degrees(a.max()),
+               cannot_see(T0), bool(a.max() > PINHOLE_HALF_FOV), o.outcome, o.outcome == "converged", reached,
+               o.outcome not in OUT_OF_VIEW + ("cannot_see",), o.camera_retreat, o.axial_retreat, o.path_length,
+               o.peak_linear_speed, o.peak_angular_speed, o.final_translation_error, o.final_rotation_error)
+
+
+def sample(seed: int, index: int) -> dict:
+    """The parameters of random start `index` (a function of (seed, index) only)."""
+    rng = np.random.default_rng([int(seed), int(index)])
+    return dict(DEFAULTS, **{k: float(lo + rng.random() * (hi - lo)) for k, (lo, hi) in RANGES.items()})
+
+
+def starts(rotations: int = 19, general: int = 200, seed: int = 0) -> list[tuple[str, str, np.ndarray]]:
+    """(study, label, start pose) of every run (per scheme); random starts with a point beyond the lens's
+    circle are skipped (no camera sees them)."""
+    out = [("paper", c.name, np.asarray(c.start)) for c in
+           (sim.cases.x_translation(), sim.cases.z_rotation(), sim.cases.general_motion())]
+    for deg in np.linspace(0.0, 180.0, rotations):
+        out.append(("rotation", f"rz {deg:g} deg", offset(dict(DEFAULTS, rz_deg=float(deg)))))
+    k = n = 0
+    while n < general:
+        T = offset(sample(seed, k))
+        if np.all(off_axis(in_camera(T, target_points())) < HALF_FOV):
+            out.append(("general", f"#{k}", T))
+            n += 1
+        k += 1
+    return out
+
+
+#: The runs whose traces the figures draw.
+TRACED = ("z_rotation",)
+
+
+def study(rotations: int = 19, general: int = 200, seed: int = 0, schemes_: Sequence[str] = SCHEMES,
+          keep: Optional[dict] = None) -> list[Row]:
+    """Every run of the study; keep: a dict filled with {(start label, scheme): Trace} of the TRACED runs."""
+    cam = camera()
+    rows = []
+    for st, label, T0 in starts(rotations, general, seed):
+        for scheme in schemes_:
+            o, tr = run(scheme, T0, cam, trace=keep is not None and label in TRACED)
+            rows.append(summarise(st, label, scheme, T0, o))
+            if tr is not None:
+                keep[(label, scheme)] = tr
+    return rows
+
+
+# ------------------------------------------------------------------------------------------- the page
+
+
+def _median(x) -> float:
+    x = [v for v in x if math.isfinite(v)]
+    return float(np.median(x)) if x else math.nan
+
+
+def _share(k: int, n: int) -> str:
+    return f"{k}/{n} ({100.0 * k / n:.0f} %)" if n else "—"
+
+
+def table(rows: Sequence[Row], study_names=("paper", "rotation", "general")) -> str:
+    """Per scheme over the given studies: converged, reached, cannot see, stayed in view, retreat, path,
+    peak speeds (medians over the runs that converged... no: over every run started)."""
+    head = ("| scheme | converged | reached goal | cannot see the start | converged, of the starts it sees | "
+            "stayed in view (of runs started) | retreat median / max (m) | path median (m) | "
+            "peak v median / max (m/s) | peak ω median / max (rad/s) |")
+    lines = [head, "|" + "---|" * 10]
+    for scheme in dict.fromkeys(r.scheme for r in rows):
+        mine = [r for r in rows if r.scheme == scheme and r.study in study_names]
+        ran = [r for r in mine if r.outcome != "cannot_see"]
+        if not ran:
+            continue
+        conv = sum(r.converged for r in mine)
+        v = [r.peak_linear_speed for r in ran]
+        w = [r.peak_angular_speed for r in ran]
+        cells = [
+            f"{NAMES[scheme]} (`{scheme}`)",
+            _share(conv, len(mine)),
+            _share(sum(r.reached for r in mine), len(mine)),
+            _share(len(mine) - len(ran), len(mine)),
+            _share(conv, len(ran)),
+            _share(sum(r.in_view for r in ran), len(ran)),
+            f"{_median([r.camera_retreat for r in ran]):.3f} / {max(r.camera_retreat for r in ran):.3f}",
+            f"{_median([r.path_length for r in ran]):.3f}",
+            f"{_median(v):.2f} / {max(v):.3g}",
+            f"{_median(w):.2f} / {max(w):.3g}",
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _cell(r: Row) -> str:
+    if r.reached:
+        return f"{r.camera_retreat:.2f} m"
+    return r.outcome.replace("_", " ") if r.outcome != "converged" else "converged, not reached"
+
+
+def case_table(rows: Sequence[Row], study_name: str) -> str:
+    """Per scheme and start of one study: the retreat (m) when it reached the goal, else the outcome."""
+    mine = [r for r in rows if r.study == study_name]
+    labels = list(dict.fromkeys(r.start for r in mine))
+    short = [x.replace("rz ", "").replace(" deg", "°").replace("_", " ") for x in labels]
+    lines = ["| scheme | " + " | ".join(short) + " |", "|" + "---|" * (1 + len(labels))]
+    for scheme in dict.fromkeys(r.scheme for r in mine):
+        by = {r.start: r for r in mine if r.scheme == scheme}
+        lines.append(f"| `{scheme}` | " + " | ".join(_cell(by[x]) for x in labels) + " |")
+    return "\n".join(lines)
+
+
+#: Bins of the target centre's start angle off the axis (degrees) for the general starts.
+ANGLE_BINS = (0.0, 30.0, 60.0, 80.0, 90.0, 120.0)
+
+
+def angle_table(rows: Sequence[Row]) -> str:
+    """Converged share per scheme and bin of the target centre's start angle (general starts)."""
+    gen = [r for r in rows if r.study == "general"]
+    bins = list(zip(ANGLE_BINS[:-1], ANGLE_BINS[1:]))
+    counts = []
+    for lo, hi in bins:
+        counts.append(len({r.start for r in gen if lo <= r.centre_angle_deg < hi}))
+    head = "| scheme | " + " | ".join(f"{lo:g}–{hi:g}° ({n} starts)" for (lo, hi), n in zip(bins, counts)) + " |"
+    lines = [head, "|" + "---|" * (1 + len(bins))]
+    for scheme in dict.fromkeys(r.scheme for r in gen):
+        cells = []
+        for lo, hi in bins:
+            b = [r for r in gen if r.scheme == scheme and lo <= r.centre_angle_deg < hi]
+            cells.append(f"{100.0 * sum(r.converged for r in b) / len(b):.0f} %" if b else "—")
+        lines.append(f"| `{scheme}` | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
+    """Write the figures into out; returns their file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = []
+    style = {s: ("--" if s in PERSPECTIVE else "-") for s in SCHEMES}
+    rot = [r for r in rows if r.study == "rotation"]
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for scheme in dict.fromkeys(r.scheme for r in rot):
+        mine = [r for r in rot if r.scheme == scheme]
+        deg = [float(r.start.split()[1]) for r in mine]
+        ax[0].plot(deg, [r.camera_retreat if r.reached else np.nan for r in mine], "o" + style[scheme], label=scheme,
+                   ms=3)
+        ax[1].plot(deg, [r.peak_angular_speed if r.reached else np.nan for r in mine], "o" + style[scheme],
+                   label=scheme, ms=3)
+    ax[0].set(xlabel="rotation about the optical axis (deg)", ylabel="camera retreat (m)",
+              title="retreat (gaps: goal not reached)")
+    ax[1].set(xlabel="rotation about the optical axis (deg)", ylabel="peak |ω| (rad/s)", title="peak angular speed")
+    ax[1].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    names.append("wide_rotation.png")
+    fig.savefig(out / names[-1], dpi=90)
+    plt.close(fig)
+
+    gen = [r for r in rows if r.study == "general"]
+    if gen:
+        edges = np.arange(0.0, 121.0, 10.0)
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for scheme in dict.fromkeys(r.scheme for r in gen):
+            share = []
+            for lo, hi in zip(edges[:-1], edges[1:]):
+                b = [r for r in gen if r.scheme == scheme and lo <= r.centre_angle_deg < hi]
+                share.append(100.0 * sum(r.converged for r in b) / len(b) if b else np.nan)
+            ax.plot((edges[:-1] + edges[1:]) / 2, share, "o" + style[scheme], label=scheme, ms=4)
+        ax.axvspan(90.0, 120.0, color="grey", alpha=0.15, lw=0)
+        ax.text(91.0, 50.0, "behind the\nimage plane", fontsize=7)
+        ax.set(xlabel="target centre off the optical axis at the start (deg, bins of 10)",
+               ylabel="converged (%)", title="random starts: converged share by start angle", xlim=(0, 120),
+               ylim=(-3, 103))
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        names.append("wide_angle.png")
+        fig.savefig(out / names[-1], dpi=90)
+        plt.close(fig)
+
+    runs = [(s, tr) for (lab, s), tr in keep.items() if lab == "z_rotation"]
+    if runs:
+        f = (SENSOR / 2) / HALF_FOV
+        fig, axes = plt.subplots(2, 3, figsize=(9, 6.2))
+        for a, (scheme, tr) in zip(np.ravel(axes), runs):
+            for i in range(tr.pixels.shape[1]):
+                a.plot(tr.pixels[:, i, 0], tr.pixels[:, i, 1], lw=0.9)
+                a.plot(tr.pixels[-1, i, 0], tr.pixels[-1, i, 1], "k+")
+            for deg, ls in ((110.0, "-"), (90.0, ":")):
+                a.add_patch(plt.Circle((SENSOR / 2, SENSOR / 2), f * math.radians(deg), fill=False, ls=ls,
+                                       color="grey"))
+            r = [x for x in rows if x.start == "z_rotation" and x.scheme == scheme][0]
+            a.set(xlim=(0, SENSOR), ylim=(SENSOR, 0), aspect="equal",
+                  title=f"{scheme}: {r.outcome}, retreat {r.camera_retreat:.2f} m")
+            a.title.set_fontsize(8)
+            a.tick_params(labelsize=6)
+        for a in np.ravel(axes)[len(runs):]:
+            a.axis("off")
+        fig.suptitle("the half-turn about the optical axis in the fisheye image (pixels; circles: 90° dotted, "
+                     "the lens's 110° solid)", fontsize=9)
+        fig.tight_layout()
+        names.append("wide_half_turn.png")
+        fig.savefig(out / names[-1], dpi=90)
+        plt.close(fig)
+    return names
