@@ -23,7 +23,7 @@ def start(**p) -> np.ndarray:
     return offset(dict(DEFAULTS, **p))
 
 
-@pytest.mark.parametrize("scheme", wide.PERSPECTIVE)
+@pytest.mark.parametrize("scheme", ["cartesian", "polar", "stacked"])
 def test_the_loop_reproduces_the_simulator(scheme):
     """On the perspective schemes the study's loop is ibvs.sim.run's free camera, frame for frame."""
     cam = wide.camera()
@@ -103,17 +103,21 @@ def test_spherical_polar_half_turn_takes_one_azimuth_on_the_other_branch():
     assert e.min() < 0 < e.max()  # not one branch
     sp, _ = wide.run("spherical_polar", T0)
     assert sp.outcome != "converged" and sp.path_length > 1.0
-    try:
-        per_point = lambda gain, n=4: ibvs.Servo(ibvs.Layout.polar(n), gain=gain, damping=0.0,  # noqa: E731
-                                                 angle_wrap="per_point")
-        schemes.SCHEMES["polar"], original = per_point, schemes.SCHEMES["polar"]
-        pp, _ = wide.run("polar", T0)
-    finally:
-        schemes.SCHEMES["polar"] = original
+    pp, _ = wide.run("polar_per_point", T0)
     assert (pp.outcome, pp.frames) == (sp.outcome, sp.frames)  # the laws differ (r = tan(beta)): paths within 1 %
     assert pp.path_length == pytest.approx(sp.path_length, rel=1e-2)
     consistent, _ = wide.run("polar", T0)
     assert consistent.outcome == "converged" and consistent.camera_retreat < 1e-6
+
+
+@pytest.mark.parametrize("rz, tilt, direction", [(178.0, 3.0, 30.0), (160.0, 10.0, 45.0)])
+def test_spherical_polar_fails_where_polar_needs_its_consistent_wrap(rz, tilt, direction):
+    """Near the axis, turned by most of a half-turn: polar converges, polar with per-point wraps and
+    spherical-polar (whose azimuth errors are wrapped per point) do not, and end alike."""
+    T0 = wide.start_pose(dict(DEFAULTS, rz_deg=rz, tilt_deg=tilt, tilt_dir_deg=direction))
+    o = {s: wide.run(s, T0)[0] for s in ("polar", "polar_per_point", "spherical_polar")}
+    assert o["polar"].outcome == "converged" and o["polar"].camera_retreat < 0.05
+    assert o["polar_per_point"].outcome == o["spherical_polar"].outcome != "converged"
 
 
 def test_spherical_cartesian_retreats_like_cartesian():
@@ -149,7 +153,7 @@ def test_wide_command_writes_its_page_and_figures(tmp_path, capsys):
     page = (tmp_path / "wide-study.md").read_text()
     for s in wide.SCHEMES:
         assert f"`{s}`" in page
-    for name in ("wide_rotation.png", "wide_angle.png", "wide_half_turn.png"):
+    for name in ("wide_rotation.png", "wide_angle.png", "wide_traces.png"):
         assert (tmp_path / "figures" / name).stat().st_size > 1000 and f"figures/{name}" in page
     assert "runs in" in capsys.readouterr().out
     # docs/wide-study.md is this command's page: the same prose and headings, figures that exist
