@@ -127,9 +127,15 @@ def test_spherical_cartesian_retreats_like_cartesian():
     assert runs["spherical_stacked"].camera_retreat == pytest.approx(runs["stacked"].camera_retreat, rel=0.05)
 
 
-def test_make_refuses_an_unknown_scheme():
+def test_bad_input_is_refused():
     with pytest.raises(ValueError, match="scheme"):
         wide.make("fisheye")
+    with pytest.raises(ValueError, match="start"):
+        wide.run("spherical", np.full((4, 4), np.nan))
+    with pytest.raises(ValueError, match="start"):
+        wide.run("spherical", np.eye(3))
+    with pytest.raises(ValueError, match="duration"):
+        wide.run("spherical", np.eye(4), duration=-1.0)
 
 
 # ------------------------------------------------------------------ the command and its page

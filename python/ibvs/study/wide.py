@@ -1,6 +1,6 @@
 """The wide-field study of issue 23: a 220-degree equidistant fisheye servoed on perspective features
-(normalised image points: Cartesian, polar, stacked) and on features on the sphere (spherical
-Cartesian, spherical-polar, both stacked), on the same free-camera starts.
+(normalised image points: Cartesian, polar, polar with per-point angle wraps, stacked) and on features
+on the sphere (spherical Cartesian, spherical-polar, both stacked), on the same free-camera starts.
 
     python -m ibvs.study.wide --out DIR [--rotations 19] [--general 200] [--docs]
     ibvs wide --out DIR ...
@@ -15,9 +15,9 @@ Starts: the paper's free-camera cases (x translation, half-turn about the optica
 motion), rotations about the optical axis from 0 to 180 degrees, and `general` random starts whose
 camera is tilted by up to 100 degrees (the target up to about 105 degrees off the axis). A start with a
 point at 90 degrees or more off the axis has no normalised coordinates, and ibvs refuses them beyond
-|x|, |y| = 10 (84 degrees): the perspective schemes cannot see it ("cannot_see", counted, not run). Per run: converged (error norm under TOLERANCE),
-reached (within 1 mm and 1 mrad of the goal), stayed in view, camera retreat, path length, peak
-speeds.
+|x|, |y| = 10 (84 degrees): the perspective schemes cannot see it ("cannot_see", counted, not run).
+Per run: converged (error norm under TOLERANCE), reached (within 1 mm and 1 mrad of the goal), stayed
+in view, camera retreat, path length, peak speeds of the commanded twist.
 
 The loop is the simulator's (ibvs.sim.run) for a free-flying camera — the twist held for a frame,
 T <- T exp(v dt), the same stopping rules — written here in Python because the simulator measures
@@ -43,33 +43,46 @@ from . import schemes
 from .compare import wrap
 from .scenario import DEFAULTS, offset
 
+__all__ = ["ANGLE_BINS", "DURATION", "FPS", "GAIN", "HALF_FOV", "NAMES", "PERSPECTIVE", "PERSPECTIVE_LIMIT",
+           "PINHOLE_HALF_FOV", "RANGES", "REACHED", "SCHEMES", "SENSOR", "SPHERICAL", "TOLERANCE", "Outcome", "Row",
+           "Trace", "angle_table", "camera", "cannot_see", "case_table", "figures", "findings", "in_camera", "main",
+           "make", "off_axis", "page", "perspective_sees", "run", "sample", "start_pose", "starts", "starts_table",
+           "study", "summarise", "table", "target_points"]
+
 #: The lens's half field of view (radians): its image circle.
 HALF_FOV = math.radians(110.0)
 #: The square sensor's side (pixels); the image circle touches its sides.
 SENSOR = 1024
+
+#: The runs: gain (1/s), frames per second, seconds, error-norm tolerance, and "reached": within (metres,
+#: radians) of the goal pose.
 GAIN = 1.0
 FPS = 60.0
 DURATION = 30.0
 TOLERANCE = 1e-6
-REACHED = (1e-3, 1e-3)  # metres, radians
+REACHED = (1e-3, 1e-3)
 #: ibvs's domain of normalised coordinates, |X/Z|, |Y/Z| <= 10 (ibvs::max_normalized_coordinate, limits.hpp:
 #: 84 to 86 degrees off the axis); beyond it, and behind the image plane, a perspective feature is refused.
 PERSPECTIVE_LIMIT = 10.0
-MAX_DISTANCE_RATIO = 10.0  # diverged beyond this multiple of the start distance to the target (the simulator's 10)
+
+#: The simulator's stopping rules: diverged beyond MAX_DISTANCE_RATIO times the start distance to the target
+#: or MAX_ERROR_RATIO times the start error norm; collision within STANDOFF times the goal depth of its centre.
+MAX_DISTANCE_RATIO = 10.0
 MAX_ERROR_RATIO = 100.0
-STANDOFF = 0.05  # collision within this multiple of the goal depth of the target's centre
+STANDOFF = 0.05
 #: The random starts: rotation about the optical axis, tilt (its direction uniform) and translation.
 RANGES = {"rz_deg": (0.0, 180.0), "tilt_deg": (0.0, 100.0), "tilt_dir_deg": (0.0, 360.0),
           "tx": (-0.2, 0.2), "ty": (-0.2, 0.2), "tz": (-0.5, 0.5)}
 #: A conventional perspective camera for comparison: 90 degrees across (45 off the axis).
 PINHOLE_HALF_FOV = math.radians(45.0)
 
+#: The schemes: on normalised image points, on the sphere, and all of them; their names in the tables.
 PERSPECTIVE = ("cartesian", "polar", "polar_per_point", "stacked")
 SPHERICAL = ("spherical", "spherical_polar", "spherical_stacked")
 SCHEMES = PERSPECTIVE + SPHERICAL
-NAMES = {"cartesian": "IBVS (x, y)", "polar": "IBVS-P (r, θ)", "polar_per_point": "IBVS-P, θ errors wrapped per point",
-         "stacked": "stacked (x, y, r, θ)",
-         "spherical": "spherical (bx, by, bz)", "spherical_polar": "spherical-polar (β, φ)",
+NAMES = {"cartesian": "IBVS (x, y)", "polar": "IBVS-P (r, θ)", "polar_per_point": "IBVS-P, θ wrapped per point",
+         "stacked": "stacked (x, y, r, θ)", "spherical": "spherical (bx, by, bz)",
+         "spherical_polar": "spherical-polar (β, φ)",
          "spherical_stacked": "spherical stacked (b, β, φ)"}
 #: Outcomes that mean a point went out of the features' domain.
 OUT_OF_VIEW = ("left_image", "left_perspective")
@@ -182,6 +195,11 @@ def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, 
     timeout. camera_retreat: the largest increase of the camera's distance to the target's centre over
     its start value (the simulator's retreat is along the optical axis, which is meaningless when the
     target starts beside or behind the camera: that one is axial_retreat)."""
+    start = np.asarray(start, dtype=float)
+    if start.shape != (4, 4) or not np.isfinite(start).all():
+        raise ValueError(f"start must be a finite 4x4 pose (world <- camera), got shape {start.shape}")
+    if not (isinstance(duration, (int, float)) and 0 < duration <= 3600):
+        raise ValueError(f"duration must be in (0, 3600] seconds, got {duration!r}")
     cam = cam or camera()
     points = target_points()
     centre = points.mean(axis=0)
@@ -259,7 +277,8 @@ def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, 
     out = Outcome(outcome, k + 1, retreat, axial, path,
                   float(np.max(np.linalg.norm(tw[:, :3], axis=1))) if len(tw) else 0.0,
                   float(np.max(np.linalg.norm(tw[:, 3:], axis=1))) if len(tw) else 0.0,
-                  float(np.linalg.norm(T[:3, 3])), math.acos(min(1.0, max(-1.0, cos))) if np.isfinite(cos) else math.nan)
+                  float(np.linalg.norm(T[:3, 3])),
+                  math.acos(min(1.0, max(-1.0, cos))) if np.isfinite(cos) else math.nan)
     if not trace:
         return out, None
     return out, Trace(np.asarray(poses), tw, np.asarray(pixel_log).reshape(-1, 4, 2), np.asarray(norms))
@@ -375,7 +394,7 @@ def _share(k: int, n: int) -> str:
 
 def table(rows: Sequence[Row], study_names=("paper", "rotation", "general")) -> str:
     """Per scheme over the given studies: converged, reached, cannot see, stayed in view, retreat, path,
-    peak speeds (medians over the runs that converged... no: over every run started)."""
+    peak speeds (medians and maxima over the runs started)."""
     head = ("| scheme | converged | reached goal | cannot see the start | converged, of the starts it sees | "
             "stayed in view (of runs started) | retreat median / max (m) | path median (m) | "
             "peak v median / max (m/s) | peak ω median / max (rad/s) |")
@@ -588,9 +607,12 @@ def findings(rows: Sequence[Row]) -> list[str]:
                        f"is the whole story: `polar` {near_conv['polar']}, `polar_per_point` "
                        f"{near_conv['polar_per_point']}, `spherical_polar` {near_conv['spherical_polar']}: turned "
                        "by most of a half-turn, some points' errors wrap to the other side of ±π, the points pull "
-                       "different ways and the law throws the camera sideways (tested at two such starts). "
-                       f"{back} of the {len(fails)} failures of `spherical_polar` and `spherical_stacked` end "
-                       "behind the target's plane at tens of m/s. Farther off the axis all polar kinds also "
+                       "different ways and the law throws the camera sideways (tested at two such starts). The "
+                       f"spherical stacked features carry the same azimuth rows: {on_seen['spherical_stacked']} "
+                       f"against the stacked perspective features' {on_seen['stacked']}. {back} of the "
+                       f"{len(fails)} failures of `spherical_polar` and `spherical_stacked` end behind the target's "
+                       f"plane, at a median peak speed of {_median([r.peak_linear_speed for r in fails]):.0f} m/s. "
+                       "Farther off the axis all polar kinds also "
                        "suffer the weakness the paper finds in IBVS-P for translations: the azimuths of the four "
                        "points lie close together while the goal's spread round the circle.")
     h = {s: _find(rows, "paper", "z_rotation", s) for s in SCHEMES}
@@ -603,7 +625,8 @@ def findings(rows: Sequence[Row]) -> list[str]:
                    "errors are ±π, and rounding puts one of them on the other branch (−π): the feature wraps each "
                    "point's error on its own (wrap_angle), where the Servo's polar layout chooses one branch for "
                    "all points (the consistent wrap, paper eq. 13). `polar_per_point` (IBVS-P with "
-                   "`angle_wrap=\"per_point\"`) does the same (tested). A hair away from π, at 179.9° and 180.1°, and at every angle of the "
+                   "`angle_wrap=\"per_point\"`) does the same (tested). A hair away from π, at 179.9° and 180.1°, "
+                   "and at every angle of the "
                    "sweep below 180°, `spherical_polar` turns the camera about its axis with no retreat and no "
                    "sideways motion (under 1e-6 m, tested), like `polar`: the polar idea lifts to the sphere, the "
                    "consistent wrap does not yet reach its azimuth blocks.")
@@ -621,8 +644,9 @@ def findings(rows: Sequence[Row]) -> list[str]:
              for s in SCHEMES}
     out.append("- **Peak twist**: no speed limit is applied (gain 1, damping 0, as in the comparison). Median peak "
                "linear speeds: " + ", ".join(f"`{s}` {v:.1f} m/s" for s, v in peaks.items() if math.isfinite(v))
-               + ". The polar kinds' tens of m/s come from the wide starts; a robot would clip them (ibvs.Servo's "
-               "max_linear_speed / max_angular_speed), which changes their paths.")
+               + ". The polar kinds' peaks come from the wide starts, where their laws throw the camera sideways; "
+               "a robot would clip them (ibvs.Servo's max_linear_speed / max_angular_speed), which changes their "
+               "paths.")
     out.append("- Not in this study: image noise, depth estimation (the depths and distances are exact), speed "
                "limits, a lens with distortion (the model is exact here), Mei's omnidirectional model, and images "
                "rendered through the lens (the renderer does not draw through a fisheye yet).")
@@ -664,7 +688,8 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "for the perspective schemes, run for the spherical ones; *stayed in view*: no point left the lens's circle, "
         "nor, for the perspective schemes, their domain; *retreat*: the largest increase of the camera's distance "
         "to the target's centre (the simulator measures it along the optical axis, which means nothing when the "
-        "target starts beside the camera); the camera's path length; the peak speeds of the commanded twist; medians and "
+        "target starts beside the camera); the camera's path length; the peak speeds of the commanded twist; "
+        "medians and "
         "maxima over the runs started.",
         "",
         "## All starts",
