@@ -47,7 +47,7 @@ __all__ = ["ANGLE_BINS", "DURATION", "FPS", "GAIN", "HALF_FOV", "NAMES", "PERSPE
            "PINHOLE_HALF_FOV", "RANGES", "REACHED", "SCHEMES", "SENSOR", "SPHERICAL", "TOLERANCE", "Outcome", "Row",
            "Trace", "angle_table", "camera", "cannot_see", "case_table", "figures", "findings", "in_camera", "main",
            "make", "off_axis", "page", "perspective_sees", "run", "sample", "start_pose", "starts", "starts_table",
-           "study", "summarise", "table", "target_points"]
+           "study", "summarise", "summary", "table", "target_points"]
 
 #: The lens's half field of view (radians): its image circle.
 HALF_FOV = math.radians(110.0)
@@ -568,6 +568,40 @@ def _find(rows, study_name, start, scheme) -> Optional[Row]:
     return next((r for r in rows if r.study == study_name and r.start == start and r.scheme == scheme), None)
 
 
+def summary(rows: Sequence[Row]) -> list[str]:
+    """The page's "In short" bullets, their numbers from the rows."""
+    gen = [r for r in rows if r.study == "general"]
+    n = len({r.start for r in gen})
+    blind = {r.start for r in gen if r.cannot_see}
+
+    def conv(scheme, starts=None):
+        return sum(r.converged for r in gen if r.scheme == scheme and (starts is None or r.start in starts))
+
+    out = []
+    if n and any(r.scheme == "spherical" for r in gen):
+        out.append(f"- Spherical point features (`spherical`) converged from {conv('spherical')} of {n} random starts "
+                   f"up to 100° off the axis, {conv('spherical', blind)} of them among the {len(blind)} that no "
+                   "perspective feature can see; the perspective Cartesian features from "
+                   f"{conv('cartesian')}.")
+    h = _find(rows, "paper", "z_rotation", "spherical_polar")
+    if h is not None and n and all(any(r.scheme == s for r in gen) for s in ("polar", "polar_per_point")):
+        below = [r for r in rows if r.study == "rotation" and r.scheme == "spherical_polar"
+                 and float(r.start.split()[1]) < 180.0]
+        still = sum(r.reached and r.camera_retreat < 1e-6 for r in below)
+        out.append(f"- Spherical-polar features turn the camera about its axis without retreat (under 1e-6 m) from "
+                   f"{still} of the sweep's {len(below)} angles below 180°, but not at the exact half-turn, where "
+                   f"they end as *{h.outcome.replace('_', ' ')}*; from the random starts they converged "
+                   f"{conv('spherical_polar')} times, about as often as IBVS-P with its θ errors wrapped "
+                   f"per point ({conv('polar_per_point')}), not as IBVS-P ({conv('polar')}): their azimuth errors "
+                   "lack the consistent wrap of paper eq. (13).")
+    r = _find(rows, "rotation", "rz 150 deg", "spherical")
+    c = _find(rows, "rotation", "rz 150 deg", "cartesian")
+    if r is not None and c is not None:
+        out.append(f"- The sphere does not cure the retreat: turned by 150° about the axis, the spherical point "
+                   f"features retreat {r.camera_retreat:.2f} m, the Cartesian ones {c.camera_retreat:.2f} m.")
+    return out
+
+
 def findings(rows: Sequence[Row]) -> list[str]:
     """The bullets of "What shows", their numbers from the rows."""
     gen = [r for r in rows if r.study == "general"]
@@ -671,7 +705,9 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         f"{SENSOR} × {SENSOR} sensor; the paper's target (the square (±0.25, ±0.25) m, 3 m in front of the goal "
         "camera); gain 1, damping 0, exact depths, 60 frames/s, 30 s. Every scheme measures the target's pixels "
         "through the lens model: the perspective schemes (`cartesian`, `polar`, `stacked`, the Layouts of "
-        "ibvs.study.schemes) normalise them with `CameraModel.normalize` (x, y) = (X/Z, Y/Z); the spherical ones "
+        "ibvs.study.schemes, and `polar_per_point`, IBVS-P with `angle_wrap=\"per_point\"`: each point's θ error "
+        "wrapped on its own, as a spherical-polar block wraps its azimuth) normalise them with "
+        "`CameraModel.normalize`, (x, y) = (X/Z, Y/Z); the spherical ones "
         "lift them to bearings with `ibvs.spherical_measurements` and servo four `SphericalPointFeature` blocks "
         "(`spherical`, 12 rows), four `SphericalPolarFeature` blocks (`spherical_polar`, 8 rows) or both per point "
         "(`spherical_stacked`, 20 rows). Random starts: rotation about the axis 0–180°, tilt 0–100° in a uniform "
@@ -691,6 +727,10 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "target starts beside the camera); the camera's path length; the peak speeds of the commanded twist; "
         "medians and "
         "maxima over the runs started.",
+        "",
+        "**In short.**",
+        "",
+    ] + summary(rows) + [
         "",
         "## All starts",
         "",
