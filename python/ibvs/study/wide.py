@@ -198,6 +198,10 @@ def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, 
     start = np.asarray(start, dtype=float)
     if start.shape != (4, 4) or not np.isfinite(start).all():
         raise ValueError(f"start must be a finite 4x4 pose (world <- camera), got shape {start.shape}")
+    R = start[:3, :3]
+    if (np.abs(R).max() > 1.0 + 1e-6 or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0
+            or np.abs(start[3] - (0, 0, 0, 1)).max() > 0 or np.abs(start[:3, 3]).max() > 1e3):
+        raise ValueError("start must be a rigid transform (rotation, translation within 1 km, last row 0 0 0 1)")
     if not (isinstance(duration, (int, float)) and 0 < duration <= 3600):
         raise ValueError(f"duration must be in (0, 3600] seconds, got {duration!r}")
     cam = cam or camera()
