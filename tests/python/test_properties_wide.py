@@ -86,7 +86,8 @@ def test_spherical_measurements_finite_or_refused(px, R):
 
 
 @settings(max_examples=60, deadline=None)
-@given(hnp.arrays(np.float64, 3, elements=st.floats(-4.0, 4.0)), hnp.arrays(np.float64, 3, elements=st.floats(-3.0, 3.0)),
+@given(hnp.arrays(np.float64, 3, elements=st.floats(-4.0, 4.0)),
+       hnp.arrays(np.float64, 3, elements=st.floats(-3.0, 3.0)),
        st.sampled_from(["cartesian", "polar_per_point", "spherical", "spherical_stacked"]),
        hnp.arrays(np.float64, (4, 4), elements=ENTRY))
 def test_wide_study_runs_finite_or_refused(rotation, translation, scheme, junk):
