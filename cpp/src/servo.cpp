@@ -595,9 +595,15 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
           w.key ^= drop_lost(layout, *valid, w.J, w.e);
           enough = 2 * (n - lost) + (m - task_.point_rows()) >= task_.n_dof();
         }
-        out.error = w.e.head(m);
+        constexpr int rows = std::decay_t<decltype(w)>::Jac::RowsAtCompileTime;
+        if constexpr (rows != Eigen::Dynamic) {  // the fixed point kernels: fixed-size copies (m = rows)
+          Eigen::Map<Eigen::Matrix<double, rows, 1>>(out.error.data()) = w.e;
+          Eigen::Map<Eigen::Matrix<double, rows, 6>>(out.jacobian.data()) = w.J;
+        } else {
+          out.error = w.e.head(m);
+          out.jacobian = w.J.topRows(m);
+        }
         out.error_norm = out.error.norm();
-        out.jacobian = w.J.topRows(m);
         const AdaptiveGain& ag = o.adaptive_gain;
         out.gain = ag.enabled() ? ag(out.error_norm) : o.gain;
         out.law_switched = out.acceleration_limited = false;
