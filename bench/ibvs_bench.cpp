@@ -790,15 +790,6 @@ void bench_task(const TaskCase& c, const TaskFrames& tf, const Options& o) {
       servo.update(uv(k), z(k), uvd(k), zd(k), meas(k), meas_d(k), out);
       const Twist f = c.floor(k, o.damping, o.gain);
       worst = std::max(worst, (f - out.velocity).norm() / out.velocity.norm());
-      if (std::getenv("IBVS_BENCH_DEBUG") && k == 0) {
-        std::fprintf(stderr, "%s servo ", c.name);
-        for (int i = 0; i < 6; ++i) std::fprintf(stderr, "%g ", out.velocity(i));
-        std::fprintf(stderr, "\nfloor ");
-        for (int i = 0; i < 6; ++i) std::fprintf(stderr, "%g ", f(i));
-        std::fprintf(stderr, "\nerror ");
-        for (int i = 0; i < out.error.size(); ++i) std::fprintf(stderr, "%g ", out.error(i));
-        std::fprintf(stderr, "\n");
-      }
     }
     if (!(worst < 1e-9)) {
       std::fprintf(stderr, "ibvs-bench: the floor kernel disagrees with Servo::update for the %s task: %g\n", c.name,
@@ -828,6 +819,8 @@ void bench_task(const TaskCase& c, const TaskFrames& tf, const Options& o) {
   Result& r = add("tasks", "Eigen floor: fixed-size LLT step", c.name, n, m, "LLT", o.damping, 0);
   time_case(r, o, [&](long i) { keep(c.floor(static_cast<int>(i & (Frames::count - 1)), o.damping, o.gain)); });
 }
+
+void print_floor_ratio(std::FILE* f, const char* section, const std::string& layout, const std::string& label);
 
 /// The tasks of issue 21 beside their floors: image moments (Tahri & Chaumette's six features of
 /// a region), PBVS (both variants; the floor for camera to desired camera), 2.5-D, and the mixed
@@ -871,6 +864,7 @@ void bench_tasks(const Options& o, std::FILE* table) {
     const std::size_t first = g_results.size();
     bench_task(c, tf, o);
     for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
+    print_floor_ratio(table, "tasks", c.name, c.name);
     std::fflush(table);
   }
 }
@@ -1286,6 +1280,20 @@ void print_visp_ratio(std::FILE* f, const std::string& kind) {
                  kind.c_str(), svd->median_us / def->median_us);
 }
 
+/// Servo::update over its floor, default and tuned (medians of the same run), for one layout or task.
+void print_floor_ratio(std::FILE* f, const char* section, const std::string& layout, const std::string& label) {
+  const Result *def = nullptr, *tuned = nullptr, *floor = nullptr;
+  for (const Result& r : g_results)
+    if (r.section == section && r.layout == layout && (r.section == std::string("tasks") || r.n == 4)) {
+      if (r.name == "Servo::update default (damping 0, diag.)") def = &r;
+      if (r.name == "Servo::update tuned (damped, no diag.)") tuned = &r;
+      if (r.name == "Eigen floor: fixed-size LLT step") floor = &r;
+    }
+  if (def && tuned && floor && floor->median_us > 0)
+    std::fprintf(f, "  Servo::update / floor (medians), %s: default %.2fx, tuned %.2fx\n", label.c_str(),
+                 def->median_us / floor->median_us, tuned->median_us / floor->median_us);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1316,7 +1324,10 @@ int main(int argc, char** argv) {
         const std::size_t first = g_results.size();
         bench_components(kind, n, o);
         for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
-        if (n == 4) print_visp_ratio(table, kind);
+        if (n == 4) {
+          print_visp_ratio(table, kind);
+          print_floor_ratio(table, "components", kind, kind + "(4)");
+        }
         std::fflush(table);
       }
   }
