@@ -88,11 +88,11 @@ def test_python_bench_task_rows(capsys: pytest.CaptureFixture[str]) -> None:
     assert bench.main(["--iterations", "100", "--json"]) == 0
     cases = [c for c in json.loads(capsys.readouterr().out)["cases"] if c.get("task")]
     assert {(c["name"], c["layout"]) for c in cases} == {
-        (n, t) for n in ("ibvs Servo.update default (damping 0, diagnostics)", "ibvs Servo.update damped")
-        for t in bench.TASKS}
+        (n, t) for n in ("ibvs Servo.update default (damping 0, diagnostics)",
+                         "ibvs Servo.update tuned (damped, no diagnostics)") for t in bench.TASKS}
     for c in cases:
         assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
-        if c["name"] == "ibvs Servo.update damped":
+        if c["name"].startswith("ibvs Servo.update tuned"):
             assert c["twist_difference"] <= 1e-9
         else:
             assert c["default_over_tuned"] > 0
