@@ -316,11 +316,11 @@ def format_table(res: dict[str, Any]) -> str:
         (f"N = {res['cases'][0]['n']} points, damping {res['damping']}, gain {res['gain']}, "
          f"{res['iterations']} iterations; times per call in microseconds"),
         "",
-        f"  {'case':<52} {'layout':<16} {'median':>8} {'p99':>8} {'max':>8} {'calls/s':>10} {'ratio':>16}",
+        f"  {'case':<52} {'layout':<20} {'median':>8} {'p99':>8} {'max':>8} {'calls/s':>10} {'ratio':>16}",
     ]
     for c in res["cases"]:
         what = f"{c['layout']} {c['rows']}x6" if c.get("task") else f"{c['layout']}({c['n']}) {c['rows']}x6"
-        lines.append(f"  {c['name']:<52} {what:<16} {_cell(c['median_us'], 8, 2)} {_cell(c['p99_us'], 8, 2)} "
+        lines.append(f"  {c['name']:<52} {what:<20} {_cell(c['median_us'], 8, 2)} {_cell(c['p99_us'], 8, 2)} "
                      f"{_cell(c['max_us'], 8, 1)} {_cell(c['calls_per_s'], 10, 0)} {_ratio(c):>16}")
     lines.append(f"  {_NO_RATIO}")
     return "\n".join(lines)
