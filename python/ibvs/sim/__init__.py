@@ -26,6 +26,7 @@ from __future__ import annotations
 from . import cases
 from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
 from .episode import MomentsSource, PbvsSource, Point25DSource
+from .episode import EllipseSource, FunctionSource, SegmentSource, plane_in_camera
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
 from .miscalibrated import MiscalibratedCamera, MiscalibratedRobot
@@ -35,7 +36,9 @@ from .urdf import UrdfRobot, example_robot_urdf
 
 __all__ = [
     "Camera",
+    "EllipseSource",
     "FeatureSource",
+    "FunctionSource",
     "Gantry",
     "HandEyeData",
     "HandEyeScene",
@@ -52,6 +55,7 @@ __all__ = [
     "Result",
     "Robot",
     "RunStatus",
+    "SegmentSource",
     "Sensor",
     "Target",
     "UrdfRobot",
@@ -59,6 +63,7 @@ __all__ = [
     "collect_hand_eye",
     "example_robot_urdf",
     "hand_eye_scene",
+    "plane_in_camera",
     "pose",
     "pose_deg",
     "rotation",

@@ -26,6 +26,10 @@ LineSource = _sim.LineSource
 MomentsSource = _sim.MomentsSource
 PbvsSource = _sim.PbvsSource
 Point25DSource = _sim.Point25DSource
+SegmentSource = _sim.SegmentSource
+EllipseSource = _sim.EllipseSource
+FunctionSource = _sim.FunctionSource
+plane_in_camera = _sim.plane_in_camera
 
 
 _REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}
