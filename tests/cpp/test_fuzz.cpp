@@ -644,10 +644,11 @@ void fuzz_task(Bytes& b) {
   }
 }
 
-// Feature sources: a LineSource of any indices on a target of any points is accepted or refused
-// (std::invalid_argument); from any poses and points, measure() answers false or five finite
-// values; a short episode of a line task from any start either throws std::invalid_argument or
-// ends with finite recorded errors.
+// Feature sources: a LineSource (SegmentSource, EllipseSource) of any indices (centre, normal,
+// radius) on a target of any points is accepted or refused (std::invalid_argument); from any poses
+// and points, measure() answers false or finite values; a short episode of a line task (or a
+// PBVS + 2.5-D task, any depth mode and depth_scale: the goal estimated from its image) from any
+// start either throws std::invalid_argument or ends with finite recorded errors.
 void fuzz_sources(Bytes& b) {
   using namespace ibvs::sim;
   const int n = b.small(1, 5);
@@ -698,14 +699,50 @@ void fuzz_sources(Bytes& b) {
     if (src->measure(f, ms))
       for (int i = 0; i < src->size(); ++i) CHECK(std::isfinite(ms[i]));
   }
+  // Segment and circle sources of any arguments (a zero or negative radius, a zero normal, coincident
+  // points...): refused with std::invalid_argument, or measure() false or finite values its block checks.
+  try {
+    const SegmentSource segment(b.small(-1, 5), b.small(-1, 5));
+    segment.validate(t.points, "fuzz");
+    double ms[6];
+    int entry = -1;
+    if (segment.measure(f, ms)) {
+      for (double v : ms) CHECK(std::isfinite(v));
+      SegmentFeature().check(ms, entry);
+    }
+  } catch (const std::invalid_argument&) {
+  }
+  try {
+    const Eigen::Vector3d centre(b.coordinate(), b.coordinate(), b.byte() < 200 ? 0.0 : b.real());
+    const Eigen::Vector3d normal(b.byte() < 128 ? 0.0 : b.real(), b.byte() < 128 ? 0.0 : b.real(),
+                                 b.byte() < 64 ? 0.0 : b.real());
+    const EllipseSource circle(centre, normal, b.byte() < 40 ? b.real() : b.byte() / 128.0);
+    circle.validate(t.points, "fuzz");
+    double ms[8];
+    int entry = -1;
+    if (circle.measure(f, ms)) {
+      for (double v : ms) CHECK(std::isfinite(v));
+      EllipseFeature().check(ms, entry);
+    }
+  } catch (const std::invalid_argument&) {
+  }
   if (b.byte() < 224) return;  // an episode now and then (a few frames)
   Task task;
   task.add(LineFeature());
   EpisodeOptions o;
   o.duration = 0.05;
   o.depth = static_cast<DepthMode>(b.small(0, 3));
+  o.depth_scale = b.byte() < 192 ? 1.0 : 0.5 + b.byte() / 128.0;
   t.pose = Pose::Identity();
   t.pose(2, 3) = 1.0 + b.byte() / 64.0;
+  if (b.byte() < 96) {  // PBVS and 2.5-D instead: their goal as the depth mode knows it (teach by showing)
+    const PbvsTarget to = b.byte() < 128 ? PbvsTarget::desired_camera : PbvsTarget::object;
+    Target tp(t.points, t.pose);
+    tp.add(PbvsSource(to)).add(Point25DSource(0));
+    task = Task();
+    task.add(PbvsFeature(to)).add(Point25DFeature());
+    t = tp;
+  }
   try {
     Episode e(Servo(task), CameraModel::normalized(0.5), t, o);
     const EpisodeResult& r = e.run(pose(xi), Pose::Identity());

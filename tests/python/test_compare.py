@@ -187,6 +187,18 @@ def test_depth_error_moves_the_pbvs_goal_not_the_image_based_one():
     assert rows["2.5d"].converged and rows["2.5d"].final_translation_error == pytest.approx(1.5, abs=0.05)
 
 
+@pytest.mark.parametrize("scale", [0.5, 2.0])
+def test_depth_error_taught_by_showing_leaves_pbvs_at_the_goal(scale):
+    """The pose depth mode scaled by s: the goal's pose (and 2.5-D's Z*) estimated from the goal's image carries the
+    same s as every frame's (teach by showing), so PBVS and 2.5-D head for the true goal whatever s (PBVS's
+    translation at the rate gain * s: with s = 0.5 it is 1e-5 m away after 20 s, exp(-10) of its start)."""
+    setup = compare.scenario().replace(depth="pose")
+    for s in ("pbvs", "pbvs_object", "2.5d"):
+        row = compare.summarise("", "", s, compare.run(s, start(**GENERAL), depth_scale=scale, setup=setup), scale)
+        assert row.reached and row.final_translation_error < 1e-4 and row.final_rotation_error < 1e-6, row
+        assert row.converged or scale < 1, row
+
+
 # ------------------------------------------------------------------ schemes, sweeps and the command
 
 
@@ -229,5 +241,111 @@ def test_compare_command_writes_its_table_and_figures(tmp_path, capsys):
     page = (tmp_path / "compare.md").read_text()
     for s in compare.SCHEMES:
         assert f"`{s}`" in page
-    assert (tmp_path / "figures" / "compare_rotation.png").stat().st_size > 1000
+    for name in ("rotation", "depth", "calibration"):
+        assert (tmp_path / "figures" / f"compare_{name}.png").stat().st_size > 1000
+        assert f"](figures/compare_{name}.png)" in page
+    # the columns the issue asks for, and the limits of alpha: which target, which alpha each row uses
+    assert "| stayed in image |" in page and "## Calibration error" in page
+    for c in compare.CALIBRATIONS:
+        assert f" {c} |" in page
+    for s, alpha in compare.ALPHA.items():
+        assert f"(`{s}`) | {alpha} |" in page
+    assert "asymmetric planar quadrilateral" in page and "centrally symmetric" in page
+    assert max(len(line) for line in page.splitlines() if not line.startswith("|")) <= 120
     assert "runs in" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ calibration error
+
+
+def test_miscalibrated_camera_gives_the_servo_the_believed_normalisation():
+    """The controller's points are the believed model's normalisation of the true pixels, the goal's included;
+    whether a point is in the image is judged on the true pixel."""
+    camera, believed = compare.cameras("f ×0.8")
+    sensor = sim.MiscalibratedCamera(camera, believed)
+    r = sim.run(schemes.make("cartesian", 1.0), camera, compare.target(), start(**GENERAL), np.eye(4), duration=0.5,
+                vision=sensor)
+    P = np.asarray(r.target.points)
+    for k in (0, 10, len(r.history.uv) - 1):
+        T = np.linalg.inv(np.asarray(r.history.pose)[k]) @ np.asarray(r.target.pose)
+        Pc = P @ T[:3, :3].T + T[:3, 3]
+        true_pixels = camera.project(Pc[:, :2] / Pc[:, 2:])
+        np.testing.assert_allclose(r.history.uv[k], believed.normalize(true_pixels), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(r.history.uv[k], 1.25 * Pc[:, :2] / Pc[:, 2:], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(r.uv_desired, believed.normalize(camera.project(r.uv_desired * 0.8)), atol=1e-12)
+    # distortion ignored: the controller's points are the distorted ones
+    camera, believed = compare.cameras("k1 ignored")
+    assert camera.distortion != "none" and believed.distortion == "none"
+    r = sim.run(schemes.make("cartesian", 1.0), camera, compare.target(), start(**GENERAL), np.eye(4), duration=0.1,
+                vision=sim.MiscalibratedCamera(camera, believed))
+    x = np.asarray(r.history.uv)[0]
+    T = np.linalg.inv(np.asarray(r.history.pose)[0]) @ np.asarray(r.target.pose)
+    Pc = np.asarray(r.target.points) @ T[:3, :3].T + T[:3, 3]
+    xt = Pc[:, :2] / Pc[:, 2:]
+    np.testing.assert_allclose(x, xt * (1 + compare.K1 * np.sum(xt**2, axis=1, keepdims=True)), rtol=0, atol=1e-12)
+
+
+def test_miscalibrated_camera_refuses_and_pickles():
+    camera, believed = compare.cameras("f ×0.9")
+    with pytest.raises(TypeError, match="believed"):
+        sim.MiscalibratedCamera(camera, np.eye(3))
+    with pytest.raises(TypeError, match="camera"):
+        sim.MiscalibratedCamera("camera", believed)
+    with pytest.raises(ValueError, match="noise"):
+        sim.MiscalibratedCamera(camera, believed, noise=-1.0)
+    back = pickle.loads(pickle.dumps(sim.MiscalibratedCamera(camera, believed, noise=0.5)))
+    assert back.believed == believed and back.noise == 0.5 and "believed" in repr(back)
+
+
+@pytest.mark.parametrize("calibration", ["f ×0.8", "f ×1.25", "c +(24, −16) px"])
+def test_calibration_error_teaches_every_law_the_goal_image(calibration):
+    """Teach by showing through the wrong model: IBVS's error is zero only at the taught image; PBVS and 2.5-D aim
+    at the pose the pose depth mode estimates from the goal's image, so their error is zero where the current
+    image's estimate equals it, i.e. where the image is the goal's: all three end at the true goal, with the goal's
+    image (pixels). The bias sits in that estimate of the goal, by what the estimate of a planar target does: a focal
+    length s times the true one shows the fronto-parallel target at s Z* (s = 0.8: 2.4 m for 3 m; a PBVS given the
+    true goal pose would end where the estimate is Z*, at Z* / s), a principal point offset d (px) shifted sideways
+    by Z* d / f."""
+    scale, (du, dv), _ = compare.CALIBRATIONS[calibration]
+    want = compare.DEPTH * abs(scale - 1) if scale != 1 else compare.DEPTH * np.hypot(du, dv) / compare.FOCAL
+    for s in ("cartesian", "pbvs", "2.5d"):
+        r = compare.run(s, start(**GENERAL), calibration=calibration)
+        row = compare.summarise("calibration", calibration, s, r)
+        assert row.converged and row.reached, row
+        assert row.final_translation_error < 1e-5 and row.final_rotation_error < 1e-5, row
+        last = np.asarray(r.history.measured)[-1].reshape(-1, 2)
+        np.testing.assert_allclose(last, np.asarray(r.measured_desired), rtol=0, atol=1e-3)  # pixels
+    # the goal as the controller knows it: PlanarPose of the goal's image through the wrong model
+    cdMo_hat, _, degenerate = ibvs.PlanarPose(np.asarray(r.target.points)).estimate(r.uv_desired)
+    assert not degenerate
+    cdMo = np.asarray(r.target.pose)  # the goal camera is the world origin
+    assert np.linalg.norm(cdMo_hat[:3, 3] - cdMo[:3, 3]) == pytest.approx(want, rel=2e-3)
+    assert r.measurements_desired[2] == pytest.approx(np.asarray(r.target.points)[0] @ cdMo_hat[2, :3]
+                                                      + cdMo_hat[2, 3], rel=1e-9)  # 2.5-D's Z*: the estimate's
+
+
+@pytest.mark.parametrize("scheme", ["pbvs", "pbvs_object", "2.5d", "moments"])
+def test_estimated_goal_is_the_true_one_for_an_exact_image(scheme):
+    """With an exact camera the pose depth mode's estimate of the goal is the true goal: the sources' desired
+    measurements and the run are those of the true goal pose (the exact depth mode's goal) to 1e-9."""
+    setup = compare.scenario()
+    target = schemes.target_for(scheme, setup.target)
+    runs = {d: sim.run(schemes.make(scheme, compare.GAIN), setup.camera, target, start(**GENERAL), np.eye(4),
+                       duration=2.0, depth=d, tolerance=compare.TOLERANCE) for d in ("exact", "pose")}
+    np.testing.assert_allclose(runs["pose"].measurements_desired, runs["exact"].measurements_desired, rtol=0,
+                               atol=1e-9)
+    np.testing.assert_allclose(runs["pose"].history.pose, runs["exact"].history.pose, rtol=0, atol=1e-9)
+
+
+def test_the_calibration_table_of_the_docs_is_the_commands():
+    """docs/compare.md's calibration rows of three schemes, rerun: the page is the command's (ibvs compare --docs)."""
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "compare.md").read_text()
+    setup = compare.scenario()
+    rows = [compare.summarise("calibration", c, s, compare.run(s, offset(compare.DEPTH_START), 1.0, setup, c))
+            for c in compare.CALIBRATIONS for s in ("cartesian", "2.5d", "pbvs")]
+    table = compare.calibration_table(rows).splitlines()
+    assert table[0] in page
+    for line in table[2:]:
+        assert line in page

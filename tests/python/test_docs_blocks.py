@@ -76,6 +76,8 @@ SHRINK = {
          "cp \"$(python -c 'from ibvs import sim; print(sim.example_robot_urdf(\"ur5\"))')\" my_arm.urdf\n"
          "ibvs sweep --scenario docs/scenario_arm.toml --out arm.csv --episodes 2 --jobs 1\n")],
     ("docs/benchmarks.md", "--sections components --layout cartesian,stacked"): [("50000", "300"), ("20000", "300")],
+    # Issue 21's tasks beside their floors: pinned and 30000 iterations for the page's figures, a smoke run here.
+    ("docs/benchmarks.md", "--sections components,tasks"): [("taskset -c 1 ", ""), ("30000", "300"), ("20000", "300")],
     # The full run (2 min on 2 cores) rewrites the page's tables; here a few episodes, written into the test's folder.
     ("docs/features.md", "python docs/scripts/moments_starts.py"): [
         ("python docs/scripts/moments_starts.py ", "python docs/scripts/moments_starts.py --shapes 1 ")],
@@ -139,6 +141,10 @@ PRINTS = {
     ("docs/arms.md", "ibvs.SecondaryTask(7, projector"): ["active=1", "d|e|^2/dt changed by"],
     ("docs/simulator.md", "sim.LineSource(i, (i + 1) % 4)"): ["lines          converged at frame 368",
                                                                 "points + lines converged at frame 369"],
+    ("docs/simulator.md", "sim.SegmentSource(0, 4), sim.SegmentSource(2, 6)"): [
+        "segments:         converged at frame 392", "disc + diameters: converged at frame 383, 0.004 mm"],
+    ("docs/vision.md", 'vision.blob_source(case.camera, disc, "ellipse")'): [
+        "ellipse from images: converged at frame 361", "moments from images: converged at frame 702, 3.3 mm"],
     ("docs/simulator.md", "noise=0.3, latency=1, seed=7"): [
         "converged at frame 442 (error norm 0.00172 < tolerance 0.002)",
         "converged at frame 377 (worst point 0.931 px from its goal <= tolerance_px 1)",

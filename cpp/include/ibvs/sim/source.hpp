@@ -27,11 +27,20 @@
 //     the camera centre, as the points' depths are), except for estimated;
 //   * depth: the depths the depth mode gave the points (N), for per-point
 //     depth inputs (a segment's endpoint depths);
-//   * goal: the goal's true camera <- target pose c*Mo, for features whose
-//     measurement compares the current pose with the desired one (PBVS,
-//     2.5-D) or needs the goal's area and depth (moments).
-// At the goal (frame -1, teach by showing) cMo = depth_pose = the goal's true
-// pose, uv and depth the desired points and depths.
+//   * goal: the goal's camera <- target pose c*Mo as the depth mode knew it at
+//     the goal (frame -1, teach by showing), for features whose measurement
+//     compares the current pose with the desired one (PBVS, 2.5-D) or needs
+//     the goal's area and depth (moments):
+//       exact, desired  the goal's true pose (given),
+//       pose       ibvs::PlanarPose's estimate from the goal's image (times
+//                  depth_scale), as the depth pose from every frame's,
+//       estimated  the rigid fit to the goal's image at the estimate's prior
+//                  depths depth_scale z* (nothing has moved yet).
+//     So with a wrong camera model (sim.MiscalibratedCamera) the pose-based
+//     laws aim at the goal's image through that model, as IBVS does.
+// At the goal (frame -1) cMo = the goal's true pose, depth_pose = goal, uv the
+// desired points and depth the goal's depths as the depth mode knows them
+// (exact, desired: z*; pose: from the goal's estimate; estimated: its prior).
 //
 // A source's measure() is noexcept and allocation-free (called every frame);
 // returning false, or a measurement its block's Feature::check refuses (a
@@ -48,6 +57,7 @@
 #pragma once
 
 #include "ibvs/feature.hpp"
+#include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/moments.hpp"
 #include "ibvs/features/pose.hpp"
 #include "ibvs/layout.hpp"
@@ -65,7 +75,7 @@ struct SourceFrame {
   int frame = 0;                                ///< -1: the goal, then 0, 1, ...
   Pose cMo = Pose::Identity();                  ///< true camera <- target of the frame the controller sees
   Pose depth_pose = Pose::Identity();           ///< camera <- target as the depth mode knows it (NaN: unknown)
-  Pose goal = Pose::Identity();                 ///< camera <- target at the goal, true (c*Mo: the desired camera)
+  Pose goal = Pose::Identity();                 ///< camera <- target at the goal (c*Mo) as the depth mode knew it (see above)
   const Eigen::Matrix3Xd* points = nullptr;     ///< 3 x N target points, target frame
   const Points* uv = nullptr;                   ///< 2 x N the controller's points, normalised
   const Eigen::VectorXd* depth = nullptr;       ///< N depths the depth mode gave them, metres
@@ -145,7 +155,8 @@ class MomentsSource final : public FeatureSource {
 
 /// PBVS (PbvsFeature): PbvsFeature::measure(depth_pose, goal, target), i.e. the pose the depth
 /// mode gives (exact: the true one; pose: ibvs::PlanarPose's estimate from the image) against the
-/// goal's true pose. Lost when the depth pose is unknown or not a rigid transform.
+/// goal's as the same mode knew it (exact: the true one; pose: the estimate from the goal's
+/// image). Lost when the depth pose is unknown or not a rigid transform.
 class PbvsSource final : public FeatureSource {
  public:
   explicit PbvsSource(PbvsTarget target = PbvsTarget::desired_camera) noexcept : target_(target) {}
@@ -162,7 +173,8 @@ class PbvsSource final : public FeatureSource {
 
 /// 2.5-D (Point25DFeature) of target point i as the reference point: (x, y) the controller's
 /// point uv(i), Z the depth the depth mode gave it, theta u of c*Rc from the depth pose's rotation
-/// against the goal's. Lost when the depth pose is unknown or not a rigid transform.
+/// against the goal's (SourceFrame::goal; its Z* is the depth the mode gave point i at the goal).
+/// Lost when the depth pose is unknown or not a rigid transform.
 class Point25DSource final : public FeatureSource {
  public:
   explicit Point25DSource(int i = 0);
@@ -176,6 +188,53 @@ class Point25DSource final : public FeatureSource {
 
  private:
   int i_;
+};
+
+/// An image segment (SegmentFeature, either set) between target points i and j: (xc, yc, l, alpha)
+/// of the controller's points uv(i) -> uv(j) (SegmentFeature::measure) and the end points' depths
+/// Z1, Z2 as the depth mode gives them. Lost when the two image points are closer than
+/// min_segment_length (the segment seen end-on).
+class SegmentSource final : public FeatureSource {
+ public:
+  SegmentSource(int i, int j);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<SegmentSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return 6; }
+  bool fits(const Feature& f) const noexcept override;
+  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+
+  int i() const noexcept { return i_; }
+  int j() const noexcept { return j_; }
+
+ private:
+  int i_, j_;
+};
+
+/// The image ellipse (EllipseFeature) of a 3-D circle fixed to the target (target frame: centre,
+/// normal of its plane, radius, metres): (xg, yg, n20, n11, n02) of the circle's exact image from
+/// the true pose cMo (EllipseFeature::project_circle: the geometry, without the sensor's noise),
+/// the plane (A, B, C) of the circle from the depth pose. Give the target points on the circle's
+/// rim: the episode judges visibility on them. Lost when the circle's image is not an ellipse (its
+/// plane seen edge-on, part of it behind the camera) or the depth pose is unknown.
+class EllipseSource final : public FeatureSource {
+ public:
+  /// Throws std::invalid_argument naming the argument: a non-finite centre, a normal of zero length
+  /// (or not finite), a radius <= 0 (or not finite).
+  EllipseSource(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, double radius);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<EllipseSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return 8; }
+  bool fits(const Feature& f) const noexcept override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+
+  const Eigen::Vector3d& centre() const noexcept { return centre_; }
+  const Eigen::Vector3d& normal() const noexcept { return normal_; }  ///< unit length
+  double radius() const noexcept { return radius_; }
+
+ private:
+  Eigen::Vector3d centre_, normal_;
+  double radius_;
 };
 
 }  // namespace ibvs::sim
