@@ -7,7 +7,9 @@
 //   declared here for secondary_task.cpp;
 // * JacobiSVD<MatrixXd>: instantiated in pinv.cpp (damped_pinv, singular_values),
 //   declared here for the C++ tests' independent SVDs (tests/CMakeLists.txt puts this
-//   header in their precompiled header).
+//   header in their precompiled header);
+// * JacobiSVD<Matrix3d> (full U, V: the rotation nearest a 3 x 3 matrix): instantiated in
+//   planar_pose.cpp, declared here for the simulator's planar-target source (sim/stages/sources.hpp).
 // The same code runs as if each translation unit instantiated it: results bit for bit.
 #pragma once
 
@@ -22,3 +24,4 @@ using JointSvdMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eig
 
 extern template class Eigen::JacobiSVD<ibvs::detail::JointSvdMatrix>;
 extern template class Eigen::JacobiSVD<Eigen::MatrixXd>;
+extern template class Eigen::JacobiSVD<Eigen::Matrix3d>;
