@@ -980,6 +980,14 @@ class sim:
         def i(self) -> int:
             """The reference point (a target point's index)."""
 
+    class SphericalSource(FeatureSource):
+        """A point on the sphere (ibvs.SphericalPointFeature or SphericalPolarFeature) of target point i."""
+
+        def __init__(self, i: int = 0) -> None: ...
+        @property
+        def i(self) -> int:
+            """The target point's index."""
+
     class Target:
         """Points (N, 3) in the target frame, the target's world pose (4x4) and its feature sources."""
 

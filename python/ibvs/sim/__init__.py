@@ -25,6 +25,7 @@ from __future__ import annotations
 from . import cases
 from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
 from .episode import MomentsSource, PbvsSource, Point25DSource
+from .episode import SphericalSource
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
 from .miscalibrated import MiscalibratedRobot
@@ -51,6 +52,7 @@ __all__ = [
     "Robot",
     "RunStatus",
     "Sensor",
+    "SphericalSource",
     "Target",
     "UrdfRobot",
     "cases",

@@ -26,6 +26,7 @@ LineSource = _sim.LineSource
 MomentsSource = _sim.MomentsSource
 PbvsSource = _sim.PbvsSource
 Point25DSource = _sim.Point25DSource
+SphericalSource = _sim.SphericalSource
 
 
 _REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}

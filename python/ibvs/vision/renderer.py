@@ -53,6 +53,9 @@ class Renderer:
                    camera moving with `twist` (5 sub-frames), 0 = none
       noise        sensor noise: std of additive Gaussian noise in gray levels, then 8-bit quantisation
       seed         of the noise (a numpy default_rng); reseed() restarts it
+    A fisheye or omnidirectional camera (distortion "equidistant" or "omnidir": wide is True) is drawn
+    through each pixel's bearing, over its whole field of view (beyond 90 degrees off the axis); mask
+    is then its image circle (255 inside; the pixels outside are black), or None when every pixel sees.
     """
 
     DOT, PLATE, BACKGROUND = 230.0, 30.0, 10.0  # gray levels for dots
@@ -132,6 +135,9 @@ class Renderer:
         self._build_texture(cv2, lo, hi, xy)
         self.wide = camera.distortion in WIDE_MODELS
         self._rays = Rays(camera, self.size) if self.wide else None
+        #: (height, width) uint8, 255 where the lens images (inside a wide lens's image circle), or None
+        #: (every pixel: a perspective model)
+        self.mask = None if self._rays is None or self._rays.everywhere else self._rays.mask
         self._build_lens()
         self._target_pose = np.asarray(target.pose, dtype=np.float64)
         self._centre = np.append(xy.mean(0), 1.0)

@@ -153,6 +153,15 @@ enum class DepthMode : std::uint8_t {
   estimated = 3,  ///< online estimate from successive frames and the known camera motion (see above)
 };
 
+/// A lens that sees beyond 90 degrees off its axis (distortion equidistant or omnidir: a fisheye or
+/// an omnidirectional camera). For it the episode judges a point in the image when
+/// CameraModel::from_bearing maps it inside the lens's image circle (max_angle) and onto the sensor,
+/// whatever the sign of its depth; behind_camera only when it is closer than min_depth to the
+/// camera centre; and the target's depth (retreat, max_depth_ratio) is its centroid's distance.
+inline bool wide_lens(const CameraModel& camera) noexcept {
+  return camera.distortion() == Distortion::equidistant || camera.distortion() == Distortion::omnidir;
+}
+
 /// How an episode ended.
 enum class Outcome : std::uint8_t {
   converged = 0,      ///< error norm < tolerance (and every measured point within tolerance_px of its goal)

@@ -38,8 +38,9 @@ namespace ibvs::sim::stages {
 
 class Judge {
  public:
-  /// frames: the history's capacity (timeout at frame frames - 1).
-  Judge(const Target& target, const EpisodeOptions& options, int frames);
+  /// frames: the history's capacity (timeout at frame frames - 1); by_distance: the target's depth
+  /// is its centroid's distance from the camera centre, not its z (a wide lens, wide_lens()).
+  Judge(const Target& target, const EpisodeOptions& options, int frames, bool by_distance = false);
 
   /// The faces from the goal camera (world <- camera): the front, the standoff.
   void aim(const Pose& goal) noexcept;
@@ -73,7 +74,7 @@ class Judge {
  private:
   EpisodeOptions options_;
   int last_ = 0;  // the last frame (timeout)
-  bool planar_ = false;
+  bool planar_ = false, by_distance_ = false;
   Eigen::Matrix3d target_rotation_ = Eigen::Matrix3d::Identity();  // world <- target
   Eigen::Matrix3Xd world_points_;
   Eigen::Vector3d centroid_w_ = Eigen::Vector3d::Zero();  // of the points, in the world
@@ -86,10 +87,11 @@ class Judge {
 
 // ---------------------------------------------------------------- implementation
 
-inline Judge::Judge(const Target& target, const EpisodeOptions& options, int frames)
+inline Judge::Judge(const Target& target, const EpisodeOptions& options, int frames, bool by_distance)
     : options_(options),
       last_(frames - 1),
       planar_(target.planar()),
+      by_distance_(by_distance),
       target_rotation_(target.pose.topLeftCorner<3, 3>()),
       world_points_(target.world_points()) {
   const Eigen::Vector3d centroid = target.points.rowwise().mean();  // target frame
@@ -112,7 +114,8 @@ inline void Judge::aim(const Pose& goal) noexcept {
 
 inline bool Judge::camera(int k, const Pose& T_wc, const Eigen::Matrix3d& Rcw, const Eigen::Vector3d& tcw,
                           bool kinematics_ok, EpisodeStatus& st) noexcept {
-  const double target_depth = (Rcw * centroid_w_ + tcw)(2);  // of the points' centroid
+  const Eigen::Vector3d centroid = Rcw * centroid_w_ + tcw;  // of the points, camera frame
+  const double target_depth = by_distance_ ? centroid.norm() : centroid(2);
   if (k == 0) depth0_ = target_depth;
   retreat_ = std::max(retreat_, target_depth - depth0_);
   if (!kinematics_ok || !T_wc.allFinite() || target_depth > options_.max_depth_ratio * std::abs(depth0_)) {

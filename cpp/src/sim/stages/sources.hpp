@@ -57,12 +57,14 @@ class Sources {
 
   /// The goal's measurements (frame -1, the true goal pose), into desired(); throws
   /// std::invalid_argument if a source cannot measure there or its block refuses it.
-  void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& depth_desired);
+  void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& depth_desired,
+             const Bearings& bearings_desired);
 
   /// Frame k: T_cw the camera <- world of the frame the controller sees, pose_estimate the depth
-  /// stage's camera <- target (pose mode; null: none yet), uv and z the controller's points and
-  /// depths. Returns the first block that could not be measured, or -1.
-  int measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv, const Eigen::VectorXd& z) noexcept;
+  /// stage's camera <- target (pose mode; null: none yet), uv, z and bearings the controller's
+  /// points, depths and bearings. Returns the first block that could not be measured, or -1.
+  int measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv, const Eigen::VectorXd& z,
+              const Bearings& bearings) noexcept;
 
   const Eigen::VectorXd& measurements() const noexcept { return m_; }
   const Eigen::VectorXd& desired() const noexcept { return desired_; }
@@ -125,7 +127,8 @@ inline int Sources::measure_all(SourceFrame& f, Eigen::VectorXd& m) const noexce
   return -1;
 }
 
-inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& depth_desired) {
+inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& depth_desired,
+                           const Bearings& bearings_desired) {
   if (!active()) return;
   goal_cMo_ = se3_inverse(goal) * target_.pose;
   SourceFrame f;
@@ -133,6 +136,7 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
   f.cMo = f.depth_pose = f.goal = goal_cMo_;
   f.uv = &uv_desired;
   f.depth = &depth_desired;
+  f.bearings = &bearings_desired;
   f.points = &target_.points;
   for (int k = 0; k < task_->n_features(); ++k) {
     const auto& source = *target_.sources[static_cast<std::size_t>(k)];
@@ -145,7 +149,7 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
 }
 
 inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv,
-                            const Eigen::VectorXd& z) noexcept {
+                            const Eigen::VectorXd& z, const Bearings& bearings) noexcept {
   if (!active()) return -1;
   SourceFrame f;
   f.frame = k;
@@ -153,6 +157,7 @@ inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, 
   f.goal = goal_cMo_;
   f.uv = &uv;
   f.depth = &z;
+  f.bearings = &bearings;
   switch (mode_) {
     case DepthMode::exact: f.depth_pose = f.cMo; break;
     case DepthMode::desired: f.depth_pose = goal_cMo_; break;
