@@ -77,12 +77,10 @@ class Rays:
         """cv2.remap's maps over box: the texel coordinates (M b)_xy / (M b)_z of each pixel's bearing b,
         -1e6 (off the texture: the background) where the ray misses the plane in front of the camera."""
         x0, y0, x1, y1 = box
-        q = cv2.transform(self.bearings[y0:y1, x0:x1], M.astype(np.float32))
-        z = q[..., 2]
-        miss = ~(z > 1e-12)
-        z[miss] = 1.0
-        mx = cv2.divide(q[..., 0], z)
-        my = cv2.divide(q[..., 1], z)
-        mx[miss] = -1e6
-        my[miss] = -1e6
+        x, y, z = cv2.split(cv2.transform(self.bearings[y0:y1, x0:x1], M.astype(np.float32)))
+        miss = z <= 1e-12
+        np.copyto(z, 1.0, where=miss)
+        mx, my = cv2.divide(x, z), cv2.divide(y, z)
+        np.copyto(mx, -1e6, where=miss)
+        np.copyto(my, -1e6, where=miss)
         return mx, my

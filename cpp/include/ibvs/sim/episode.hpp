@@ -11,7 +11,10 @@
 //      target_backside, below), then the target's points in the camera frame:
 //      a point with depth below min_depth ends the episode (behind_camera);
 //      one whose noise-free projection falls outside the sensor, or that the
-//      camera model cannot map (beyond its max_radius), ends it as left_image;
+//      camera model cannot map (beyond its max_radius), ends it as left_image
+//      (a wide lens, wide_lens() below: the image circle and the sensor decide,
+//      whatever the sign of the depth; behind_camera is a distance below
+//      min_depth);
 //   3. the measurement, by the episode's Sensor (sim/sensor.hpp) from the
 //      camera model's true projections (ibvs::CameraModel: kud for the
 //      paper's ViSP camera): by default those plus Gaussian noise (seeded;
