@@ -191,17 +191,18 @@ def spherical_target(side, pose):
 
 @pytest.mark.parametrize("half, seen", [(100 * DEG, True), (75 * DEG, False)])
 def test_left_image_is_the_lens_image_circle(half, seen):
-    """A target 98.5 degrees off the axis (behind the image plane: z < 0) is in the image of a 200-degree
-    lens and has left that of a 150-degree one (left_image at frame 0, not behind_camera)."""
+    """A target 91.5 to 99.5 degrees off the axis (behind the image plane: z < 0) is in the image of a
+    200-degree lens and has left that of a 150-degree one (left_image at frame 0, not behind_camera)."""
     camera = circular_fisheye(half)
     assert camera.field_of_view == pytest.approx(2 * half)
-    target = spherical_target(0.02, sim.pose(t=(0, 0, 1.0)))
-    start = sim.pose(r=(0, 98.5 * DEG, 0))
+    target = spherical_target(0.1, sim.pose(t=(0, 0, 1.0)))
+    start = sim.pose(r=(0, 95.5 * DEG, 0))
     P = (np.linalg.inv(start) @ np.column_stack([target.world_points(), np.ones(4)]).T)[:3]
-    assert (P[2] < 0).all()
-    r = sim.run(spherical_servo(), camera, target, start, np.eye(4), duration=0.05)
+    angles = np.arccos(P[2] / np.linalg.norm(P, axis=0))
+    assert (P[2] < 0).all() and angles.max() < 99.5 * DEG
+    r = sim.run(spherical_servo(), camera, target, start, np.eye(4), duration=1 / 60)  # one frame
     if seen:
-        assert r.status.outcome == "timeout" and r.history.measurements.shape[0] == 3
+        assert (r.status.outcome, r.status.frame) == ("timeout", 0)
         b = r.history.measurements[0].reshape(4, 4)[:, :3]
         assert np.abs(b - (P / np.linalg.norm(P, axis=0)).T).max() < 1e-9  # the pixels' bearings
     else:
@@ -235,15 +236,25 @@ def test_image_in_the_loop_servoes_from_beyond_90_degrees(name):
     r = sim.run(spherical_servo(), camera, target, START_100, np.eye(4), duration=40, vision=sensor,
                 tolerance_px=0.05)
     assert r.status.outcome == "converged", r.status
-    # every tracked dot within 0.05 px of where the tracker found it at the goal: the camera there
-    assert r.metrics.final_translation_error < 1e-3 and r.metrics.final_rotation_error < 1e-3
+    # every tracked dot within 0.05 px of where the tracker found it at the goal: the camera within
+    # 5.0 mm and 0.18 deg of the goal (measured; a dot's centroid is not the pixel of its centre, and
+    # the two differ by a little more at the end than at the goal)
+    assert r.metrics.final_translation_error < 0.01 and r.metrics.final_rotation_error < 0.5 * DEG
     # the first frame's bearings: the tracked dots, beyond 90 degrees off the axis
     b0 = r.history.measurements[0].reshape(4, 4)[:, :3]
     assert (b0[:, 2] < 0).any()
-    # the tracker's pixels against the true projections over the run (the dots' image centroids are
-    # not the pixels of their centres: the perspective and distortion of 5 cm discs)
-    drift = np.nanmax(np.abs(r.history.measured - r.history.projected))
-    assert drift < 1.0, drift
+    # the tracker's pixels over the run are the centroids of the dots' images (measured: within 0.05 px),
+    # which are up to 2.5 px from the pixels of the dots' centres when the camera passes close to the
+    # 5 cm dots, 60 to 75 degrees off its axis
+    drift = np.abs(r.history.measured - r.history.projected).max(axis=(1, 2))
+    points = np.asarray(target.points)
+    worst = 0.0
+    for k in sorted({0, int(np.argmax(drift)), *range(0, r.history.measured.shape[0], 40)}):
+        T_ct = np.linalg.inv(r.history.pose[k]) @ np.asarray(target.pose)
+        for i in range(4):
+            truth = dot_image_centroid(camera, T_ct, points[i, :2], sensor.renderer.dot_radius)
+            worst = max(worst, np.abs(r.history.measured[k, i] - truth).max())
+    assert worst < 0.1, worst
 
 
 _FISH_SMALL = ibvs.CameraModel.from_opencv(
