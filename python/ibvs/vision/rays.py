@@ -45,15 +45,16 @@ class Rays:
         self._t = np.linspace(0.0, 1.0, self.EDGE_SAMPLES)
 
     def pixels_per_metre(self, H: np.ndarray, xy: np.ndarray) -> Optional[float]:
-        """sqrt |det d pixel / d (x, y)| at the plane point xy (central differences of 1 mm), or None
-        when it is not imaged."""
+        """The smallest sqrt |det d pixel / d (x, y)| over the plane points xy (N, 2) that are imaged
+        (central differences of 1 mm), or None when none is."""
         e = 1e-3
-        q = np.array([[xy[0] + e, xy[1], 1], [xy[0] - e, xy[1], 1], [xy[0], xy[1] + e, 1], [xy[0], xy[1] - e, 1]])
-        px = self.camera.from_bearing(q @ H.T, invalid="nan")
-        if not np.isfinite(px).all():
-            return None
-        J = np.column_stack([px[0] - px[1], px[2] - px[3]]) / (2 * e)
-        return math.sqrt(abs(np.linalg.det(J)))
+        steps = np.array([[e, 0], [-e, 0], [0, e], [0, -e]])
+        q = (xy[:, None, :] + steps[None]).reshape(-1, 2)
+        px = self.camera.from_bearing(np.column_stack([q, np.ones(len(q))]) @ H.T, invalid="nan").reshape(-1, 4, 2)
+        J = np.stack([px[:, 0] - px[:, 1], px[:, 2] - px[:, 3]], axis=-1) / (2 * e)  # (N, 2, 2)
+        ppm = np.sqrt(np.abs(np.linalg.det(J)))
+        ppm = ppm[np.isfinite(ppm)]
+        return float(ppm.min()) if ppm.size else None
 
     def box(self, H: np.ndarray, corners: np.ndarray) -> Tuple[int, int, int, int]:
         """The sensor pixels (x0, y0, x1, y1) that can see the plate (corners (4, 3): its outline in the

@@ -141,6 +141,7 @@ class Renderer:
         self._build_lens()
         self._target_pose = np.asarray(target.pose, dtype=np.float64)
         self._centre = np.append(xy.mean(0), 1.0)
+        self._level_points = np.vstack([xy, xy.mean(0)])  # where a wide lens's texture level is chosen
         rows, cols = self._pyramid[0].shape
         o, ex, ey = self._origin, cols * self._d0, rows * self._d0
         self._corners = np.array(
@@ -382,8 +383,9 @@ class Renderer:
         box = tuple(int(f(v)) for f, v in zip((min, min, max, max), zip(*boxes)))
         if not (box[2] > box[0] and box[3] > box[1]):
             return None
-        # one texture level for the frame: about 0.7 image pixel per texel or more at the target's centre
-        ppm = rays.pixels_per_metre(visible[0], self._centre)
+        # one texture level for the frame: about 0.7 image pixel per texel or more at the target's point
+        # imaged smallest (a wide lens's scale varies much over a plate; finer texels there would alias)
+        ppm = rays.pixels_per_metre(visible[0], self._level_points)
         level = 0 if ppm is None else int(
             np.clip(math.ceil(math.log2(0.7 / max(ppm * self._d0, 1e-12))), 0, self.LEVELS - 1)
         )
