@@ -212,6 +212,7 @@ void pose_moments_episode_allocates_nothing() {
 // An episode of spherical blocks on a fisheye from 100 degrees off the axis (SphericalSource, the wide
 // lens's in-image test and bearings): nothing allocated per frame.
 void spherical_episode_allocates_nothing() {
+  using namespace sim_cases;
   Eigen::Matrix3d K;
   K << 300, 0, 640, 0, 300, 512, 0, 0, 1;
   const CameraModel fish = CameraModel::from_opencv(K, Eigen::Vector4d(-0.013, 0.02, -0.012, 0.002), 1280, 1024, true);

@@ -42,7 +42,8 @@ CAMERAS = {"fisheye": fisheye, "omnidir": omnidir}
 
 
 def unit(angle, azimuth):
-    return np.array([math.sin(angle) * math.cos(azimuth), math.sin(angle) * math.sin(azimuth), math.cos(angle)])
+    s = math.sin(angle)
+    return np.array([s * math.cos(azimuth), s * math.sin(azimuth), math.cos(angle)])
 
 
 def facing(angle, azimuth, distance, tilt=(0.0, 0.0, 0.0)):
@@ -61,7 +62,8 @@ def facing(angle, azimuth, distance, tilt=(0.0, 0.0, 0.0)):
 def dot_image_centroid(camera, T_ct, center, radius, n=4000):
     """Area centroid (pixels) of the image of the disc (center (x, y) in the target plane, radius m)."""
     phi = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    rim = np.column_stack([center[0] + radius * np.cos(phi), center[1] + radius * np.sin(phi), np.zeros(n), np.ones(n)])
+    x, y = center[0] + radius * np.cos(phi), center[1] + radius * np.sin(phi)
+    rim = np.column_stack([x, y, np.zeros(n), np.ones(n)])
     px = camera.from_bearing((T_ct @ rim.T)[:3].T)
     x, y = px[:, 0], px[:, 1]
     x1, y1 = np.roll(x, -1), np.roll(y, -1)
@@ -216,7 +218,8 @@ def test_spherical_source_errors():
     with pytest.raises(ValueError, match="not a target point"):
         target.with_features([sim.SphericalSource(4)])
     with pytest.raises(ValueError, match="cannot measure"):
-        sim.run(spherical_servo(n=1), fisheye(), target.with_features([sim.LineSource(0, 1)]), np.eye(4), np.eye(4))
+        lines = target.with_features([sim.LineSource(0, 1)])
+        sim.run(spherical_servo(n=1), fisheye(), lines, np.eye(4), np.eye(4))
     assert repr(sim.SphericalSource(2)) == "SphericalSource(2)" and sim.SphericalSource(2).i == 2
 
 

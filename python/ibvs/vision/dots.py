@@ -69,8 +69,8 @@ class DotTracker:
             m = np.asarray(mask)
             if m.shape != (self.size[1], self.size[0]) or m.dtype.kind not in "biu":
                 raise ValueError(
-                    f"mask must be None or a (height, width) = {(self.size[1], self.size[0])} array of booleans or "
-                    f"integers, got shape {m.shape} and dtype {m.dtype}"
+                    f"mask must be None or a (height, width) = {(self.size[1], self.size[0])} array of "
+                    f"booleans or integers, got shape {m.shape} and dtype {m.dtype}"
                 )
             self._blind = None if m.all() else (m == 0).astype(np.uint8)
         self._last = self._prev = None

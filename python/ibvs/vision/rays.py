@@ -50,7 +50,8 @@ class Rays:
         e = 1e-3
         steps = np.array([[e, 0], [-e, 0], [0, e], [0, -e]])
         q = (xy[:, None, :] + steps[None]).reshape(-1, 2)
-        px = self.camera.from_bearing(np.column_stack([q, np.ones(len(q))]) @ H.T, invalid="nan").reshape(-1, 4, 2)
+        rays = np.column_stack([q, np.ones(len(q))]) @ H.T
+        px = self.camera.from_bearing(rays, invalid="nan").reshape(-1, 4, 2)
         J = np.stack([px[:, 0] - px[:, 1], px[:, 2] - px[:, 3]], axis=-1) / (2 * e)  # (N, 2, 2)
         ppm = np.sqrt(np.abs(np.linalg.det(J)))
         ppm = ppm[np.isfinite(ppm)]

@@ -9,7 +9,8 @@ camera's distortion: each sensor pixel reads the pinhole image at CameraModel.no
 centre. A fisheye or omnidirectional lens (distortion "equidistant" or "omnidir") has no pinhole
 image beyond 90 degrees: it is drawn through bearings instead (ibvs.vision.rays: each pixel's ray,
 CameraModel.to_bearing, met with the target's plane, then one remap of the texture), and the
-pixels outside its image circle (where to_bearing refuses) are black (0, without noise). Dots are drawn with anti-aliased edges (coverage of each texel), so that the intensity
+pixels outside its image circle (where to_bearing refuses) are black (0, without noise). Dots are
+drawn with anti-aliased edges (coverage of each texel), so that the intensity
 centroid of a rendered dot is the area centroid of the dot's image (see tests/python/test_vision.py:
 that, not the projection of the dot's centre, is what a centroid can be compared with; they differ
 by the perspective and distortion of a finite disc, up to about 0.1 px at 15 px radius).
@@ -250,8 +251,8 @@ class Renderer:
         R_cw = pose_wc[:3, :3].T  # rigid inverse
         R = R_cw @ T_wt[:3, :3]
         t = R_cw @ (T_wt[:3, 3] - pose_wc[:3, 3])
-        # the camera centre in the target frame is -R^T t: in front when its z < 0
-        if (R[:, 2] @ t) <= 0 or not np.isfinite(t).all():
+        # the camera centre in the target frame is -R^T t: in front when its z < 0 (edge-on: no image)
+        if not np.isfinite(t).all() or (R[:, 2] @ t) <= 1e-12 * max(1.0, float(np.linalg.norm(t))):
             return None
         return np.column_stack([R[:, 0], R[:, 1], t])
 
@@ -332,10 +333,10 @@ class Renderer:
                     pose_wc @ se3_exp(v * (-self.exposure * j / (self.MOTION_SAMPLES - 1)))
                     for j in range(1, self.MOTION_SAMPLES)
                 ]
-        W, H = self.size
-        region = None  # the sensor pixels the plate covers: ((x0, y0, x1, y1), float32 gray levels)
         if self.wide:
             return self._finish(cv2, self._region_wide(cv2, poses))
+        W, H = self.size
+        region = None  # the sensor pixels the plate covers: ((x0, y0, x1, y1), float32 gray levels)
         Hs = [Hp for Hp in (self._homography(p) for p in poses)]
         visible = [Hp for Hp in Hs if Hp is not None]
         if visible:
