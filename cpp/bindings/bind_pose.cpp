@@ -156,13 +156,16 @@ class PyFunctionFeature final : public Feature {
     e.valid = true;
     return nullptr;
   }
-  const char* fail(std::string why) const noexcept {
+  // The message lives in a per-thread string: copies of a Task share this block, and a message held
+  // in the block could be overwritten by another thread's refusal while this thread still reads it.
+  static const char* fail(std::string why) noexcept {
+    thread_local std::string message;
     try {
-      why_ = std::move(why);
+      message = std::move(why);
     } catch (...) {
       return "fn failed";
     }
-    return why_.c_str();
+    return message.c_str();
   }
 
   int rows_, size_;
@@ -171,7 +174,6 @@ class PyFunctionFeature final : public Feature {
   // Touched only under the GIL (copies of a Task share their blocks).
   mutable std::array<Entry, 2> cache_;
   mutable int next_ = 0;
-  mutable std::string why_;
 };
 
 }  // namespace ibvs::py_pose

@@ -282,6 +282,63 @@ void add_features(Target& t, py::handle features) {
   }
 }
 
+/// Robot.set_secondary_task: the settings validated with the robot, the old ones kept if refused.
+void set_secondary(Robot& r, py::handle projector, bool avoid, py::handle rho, py::handle rho1, py::handle lambda_tune,
+                   py::handle qddot_max, py::handle switch_low, py::handle switch_high) {
+  SecondaryTaskOptions o;
+  o.projector = projector_arg(projector);
+  o.rho = real(rho, "rho");
+  o.rho1 = real(rho1, "rho1");
+  o.lambda_tune = real(lambda_tune, "lambda_tune");
+  o.switch_low = real(switch_low, "switch_low");
+  o.switch_high = real(switch_high, "switch_high");
+  JointVector acc;
+  if (!qddot_max.is_none()) {
+    const CArray a = as_array(qddot_max, "qddot_max");
+    if (a.ndim() == 0) acc = JointVector::Constant(r.dof(), *a.data());
+    else acc = joint_vector_arg(qddot_max, "qddot_max", r.dof());
+  }
+  const SecondaryTaskOptions old = r.secondary;
+  const bool old_on = r.secondary_task, old_avoid = r.avoid_joint_limits;
+  const JointVector old_acc = r.qddot_max;
+  r.secondary = o;
+  r.secondary_task = true;
+  r.avoid_joint_limits = avoid;
+  r.qddot_max = acc;
+  try {
+    r.validate();
+  } catch (...) {
+    r.secondary = old;
+    r.secondary_task = old_on;
+    r.avoid_joint_limits = old_avoid;
+    r.qddot_max = old_acc;
+    throw;
+  }
+}
+
+/// Robot.secondary_task: None, or the keyword arguments of set_secondary (also the pickled state).
+py::object secondary_settings(const Robot& r) {
+  if (!r.secondary_task) return py::none();
+  py::dict d;
+  d["projector"] = to_string(r.secondary.projector);
+  d["avoid_joint_limits"] = r.avoid_joint_limits;
+  d["rho"] = r.secondary.rho;
+  d["rho1"] = r.secondary.rho1;
+  d["lambda_tune"] = r.secondary.lambda_tune;
+  d["qddot_max"] = r.qddot_max.size() ? py::cast(Eigen::VectorXd(r.qddot_max)) : py::none();
+  d["switch_low"] = r.secondary.switch_low;
+  d["switch_high"] = r.secondary.switch_high;
+  return std::move(d);
+}
+
+/// set_secondary from the dict secondary_settings returns (a pickled robot's state).
+void restore_secondary(Robot& r, py::handle settings) {
+  if (settings.is_none()) return;
+  const py::dict d = py::reinterpret_borrow<py::dict>(settings);
+  set_secondary(r, d["projector"], d["avoid_joint_limits"].cast<bool>(), d["rho"], d["rho1"], d["lambda_tune"],
+                d["qddot_max"], d["switch_low"], d["switch_high"]);
+}
+
 }  // namespace
 
 void bind_sim(py::module_& m) {
@@ -463,38 +520,7 @@ The episode loop calls kinematics() once per frame and holds the GIL for such a 
           "Joint velocities (n,) for the camera twist at q, by the robot's JointMapping (before the speed limits).")
       .def(
           "set_secondary_task",
-          [](Robot& r, py::handle projector, bool avoid, py::handle rho, py::handle rho1, py::handle lambda_tune,
-             py::handle qddot_max, py::handle switch_low, py::handle switch_high) {
-            SecondaryTaskOptions o;
-            o.projector = projector_arg(projector);
-            o.rho = real(rho, "rho");
-            o.rho1 = real(rho1, "rho1");
-            o.lambda_tune = real(lambda_tune, "lambda_tune");
-            o.switch_low = real(switch_low, "switch_low");
-            o.switch_high = real(switch_high, "switch_high");
-            JointVector acc;
-            if (!qddot_max.is_none()) {
-              const CArray a = as_array(qddot_max, "qddot_max");
-              if (a.ndim() == 0) acc = JointVector::Constant(r.dof(), *a.data());
-              else acc = joint_vector_arg(qddot_max, "qddot_max", r.dof());
-            }
-            const SecondaryTaskOptions old = r.secondary;
-            const bool old_on = r.secondary_task, old_avoid = r.avoid_joint_limits;
-            const JointVector old_acc = r.qddot_max;
-            r.secondary = o;
-            r.secondary_task = true;
-            r.avoid_joint_limits = avoid;
-            r.qddot_max = acc;
-            try {
-              r.validate();
-            } catch (...) {
-              r.secondary = old;
-              r.secondary_task = old_on;
-              r.avoid_joint_limits = old_avoid;
-              r.qddot_max = old_acc;
-              throw;
-            }
-          },
+          &set_secondary,
           py::arg("projector") = "classical", py::arg("avoid_joint_limits") = true, py::arg("rho") = 0.1,
           py::arg("rho1") = 0.3, py::arg("lambda_tune") = 0.7, py::arg("qddot_max") = py::none(),
           py::arg("switch_low") = 0.1, py::arg("switch_high") = 0.7,
@@ -513,19 +539,7 @@ qdot_max and qddot_max (None, a number or (n,) joint accelerations > 0, inf = no
           "Back to the joint mapping alone (the default).")
       .def_property_readonly(
           "secondary_task",
-          [](const Robot& r) -> py::object {
-            if (!r.secondary_task) return py::none();
-            py::dict d;
-            d["projector"] = to_string(r.secondary.projector);
-            d["avoid_joint_limits"] = r.avoid_joint_limits;
-            d["rho"] = r.secondary.rho;
-            d["rho1"] = r.secondary.rho1;
-            d["lambda_tune"] = r.secondary.lambda_tune;
-            d["qddot_max"] = r.qddot_max.size() ? py::cast(Eigen::VectorXd(r.qddot_max)) : py::none();
-            d["switch_low"] = r.secondary.switch_low;
-            d["switch_high"] = r.secondary.switch_high;
-            return std::move(d);
-          },
+          &secondary_settings,
           "None, or the settings of set_secondary_task().")
       .def(
           "outside_limits", [](const Robot& r, py::handle q) { return r.outside_limits(q_arg(q, r.dof())); },
@@ -571,10 +585,10 @@ qdot_max and qddot_max (None, a number or (n,) joint accelerations > 0, inf = no
           [](const Gantry& g) {
             return py::make_tuple(Eigen::VectorXd(g.q_min), Eigen::VectorXd(g.q_max), Eigen::VectorXd(g.qdot_max),
                                   Eigen::Matrix4d(g.mount), g.coupling, g.offset, g.mapping.singular_region,
-                                  g.mapping.damping, to_string(g.mapping.mounting));
+                                  g.mapping.damping, to_string(g.mapping.mounting), secondary_settings(g));
           },
           [](const py::tuple& s) {
-            if (s.size() != 8 && s.size() != 9) throw py::value_error("Gantry: bad pickle state");
+            if (s.size() < 8 || s.size() > 10) throw py::value_error("Gantry: bad pickle state");
             Gantry g = Gantry::afma6();
             g.q_min = s[0].cast<Eigen::VectorXd>();
             g.q_max = s[1].cast<Eigen::VectorXd>();
@@ -584,8 +598,9 @@ qdot_max and qddot_max (None, a number or (n,) joint accelerations > 0, inf = no
             g.offset = s[5].cast<double>();
             g.mapping.singular_region = s[6].cast<double>();
             g.mapping.damping = s[7].cast<double>();
-            if (s.size() == 9) g.mapping.mounting = mounting_arg(s[8]);
+            if (s.size() >= 9) g.mapping.mounting = mounting_arg(s[8]);
             g.validate();
+            if (s.size() == 10) restore_secondary(g, s[9]);
             return g;
           }));
 

@@ -229,5 +229,86 @@ def test_compare_command_writes_its_table_and_figures(tmp_path, capsys):
     page = (tmp_path / "compare.md").read_text()
     for s in compare.SCHEMES:
         assert f"`{s}`" in page
-    assert (tmp_path / "figures" / "compare_rotation.png").stat().st_size > 1000
+    for name in ("rotation", "depth", "calibration"):
+        assert (tmp_path / "figures" / f"compare_{name}.png").stat().st_size > 1000
+        assert f"](figures/compare_{name}.png)" in page
+    # the columns the issue asks for, and the limits of alpha: which target, which alpha each row uses
+    assert "| stayed in image |" in page and "## Calibration error" in page
+    for c in compare.CALIBRATIONS:
+        assert f" {c} |" in page
+    for s, alpha in compare.ALPHA.items():
+        assert f"(`{s}`) | {alpha} |" in page
+    assert "asymmetric planar quadrilateral" in page and "centrally symmetric" in page
+    assert max(len(line) for line in page.splitlines() if not line.startswith("|")) <= 120
     assert "runs in" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ calibration error
+
+
+def test_miscalibrated_camera_gives_the_servo_the_believed_normalisation():
+    """The controller's points are the believed model's normalisation of the true pixels, the goal's included;
+    whether a point is in the image is judged on the true pixel."""
+    camera, believed = compare.cameras("f ×0.8")
+    sensor = sim.MiscalibratedCamera(camera, believed)
+    r = sim.run(schemes.make("cartesian", 1.0), camera, compare.target(), start(**GENERAL), np.eye(4), duration=0.5,
+                vision=sensor)
+    P = np.asarray(r.target.points)
+    for k in (0, 10, len(r.history.uv) - 1):
+        T = np.linalg.inv(np.asarray(r.history.pose)[k]) @ np.asarray(r.target.pose)
+        Pc = P @ T[:3, :3].T + T[:3, 3]
+        true_pixels = camera.project(Pc[:, :2] / Pc[:, 2:])
+        np.testing.assert_allclose(r.history.uv[k], believed.normalize(true_pixels), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(r.history.uv[k], 1.25 * Pc[:, :2] / Pc[:, 2:], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(r.uv_desired, believed.normalize(camera.project(r.uv_desired * 0.8)), atol=1e-12)
+    # distortion ignored: the controller's points are the distorted ones
+    camera, believed = compare.cameras("k1 ignored")
+    assert camera.distortion != "none" and believed.distortion == "none"
+    r = sim.run(schemes.make("cartesian", 1.0), camera, compare.target(), start(**GENERAL), np.eye(4), duration=0.1,
+                vision=sim.MiscalibratedCamera(camera, believed))
+    x = np.asarray(r.history.uv)[0]
+    T = np.linalg.inv(np.asarray(r.history.pose)[0]) @ np.asarray(r.target.pose)
+    Pc = np.asarray(r.target.points) @ T[:3, :3].T + T[:3, 3]
+    xt = Pc[:, :2] / Pc[:, 2:]
+    np.testing.assert_allclose(x, xt * (1 + compare.K1 * np.sum(xt**2, axis=1, keepdims=True)), rtol=0, atol=1e-12)
+
+
+def test_miscalibrated_camera_refuses_and_pickles():
+    camera, believed = compare.cameras("f ×0.9")
+    with pytest.raises(TypeError, match="believed"):
+        sim.MiscalibratedCamera(camera, np.eye(3))
+    with pytest.raises(TypeError, match="camera"):
+        sim.MiscalibratedCamera("camera", believed)
+    with pytest.raises(ValueError, match="noise"):
+        sim.MiscalibratedCamera(camera, believed, noise=-1.0)
+    back = pickle.loads(pickle.dumps(sim.MiscalibratedCamera(camera, believed, noise=0.5)))
+    assert back.believed == believed and back.noise == 0.5 and "believed" in repr(back)
+
+
+@pytest.mark.parametrize("calibration", ["f ×0.8", "f ×1.25", "c +(24, −16) px"])
+def test_calibration_error_leaves_ibvs_at_the_goal_and_biases_pbvs(calibration):
+    """Teach by showing through the wrong model: IBVS's error is zero only at the taught image, so it reaches the
+    goal; PBVS given the true goal pose ends where its biased estimate equals it: a focal length s times the true
+    one shows the fronto-parallel target at the goal's distance when it is at Z* / s (s = 0.8: 3.75 m), a principal
+    point offset d (px) when it is shifted sideways by Z* d / f."""
+    rows = {s: compare.summarise("calibration", calibration, s,
+                                 compare.run(s, start(**GENERAL), calibration=calibration))
+            for s in ("cartesian", "pbvs")}
+    assert rows["cartesian"].reached, rows["cartesian"]
+    scale, (du, dv), _ = compare.CALIBRATIONS[calibration]
+    want = compare.DEPTH * abs(1 / scale - 1) if scale != 1 else compare.DEPTH * np.hypot(du, dv) / compare.FOCAL
+    assert rows["pbvs"].converged and rows["pbvs"].final_translation_error == pytest.approx(want, rel=2e-3)
+
+
+def test_the_calibration_table_of_the_docs_is_the_commands():
+    """docs/compare.md's calibration rows of three schemes, rerun: the page is the command's (ibvs compare --docs)."""
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "compare.md").read_text()
+    setup = compare.scenario()
+    rows = [compare.summarise("calibration", c, s, compare.run(s, offset(compare.DEPTH_START), 1.0, setup, c))
+            for c in compare.CALIBRATIONS for s in ("cartesian", "2.5d", "pbvs")]
+    table = compare.calibration_table(rows).splitlines()
+    assert table[0] in page
+    for line in table[2:]:
+        assert line in page

@@ -280,3 +280,34 @@ def test_pose_and_moments_sources_finite_or_refused(kind, arg, twist, depth, sca
     ok = np.isfinite(h.error_norm)
     assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
     assert np.isfinite(h.twist).all()
+
+
+# ------------------------------------------------------------------ sim.MiscalibratedCamera
+
+
+@settings(max_examples=80)
+@given(st.floats(0.5, 2.0), st.floats(-100.0, 100.0), st.floats(-100.0, 100.0), st.floats(-0.5, 0.5),
+       hnp.arrays(np.float64, (4, 2), elements=st.one_of(st.floats(-1e4, 1e4), ENTRY)),
+       st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-2, 2), st.booleans(), st.text()))
+def test_miscalibrated_camera_any_believed_model_pixels_and_noise(scale, du, dv, k1, pixels, noise):
+    """Any believed model (focal scale, principal point offset, distortion) and any pixels the episode hands it:
+    finite pixels or NaN rows (a point lost), never an exception; the noise finite >= 0 or refused by name."""
+    K = np.array([[800.0, 0.0, 240.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]])
+    camera = ibvs.CameraModel.from_opencv(K, None, 480, 480)
+    K_hat = np.array([[800 * scale, 0, 240 + du], [0, 800 * scale, 240 + dv], [0, 0, 1]])
+    believed = ibvs.CameraModel.from_opencv(K_hat, [k1, 0.0, 0.0, 0.0], 480, 480)
+    try:
+        sensor = sim.MiscalibratedCamera(camera, believed, noise=noise)
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, "noise"), str(e)
+        return
+    assert math.isfinite(sensor.noise) and sensor.noise >= 0
+    sensor.reset(3)
+    out = np.asarray(sensor.measure(0, np.eye(4), pixels, np.zeros(6)))
+    assert out.shape == (4, 2)
+    rows_ok = np.isfinite(out).all(axis=1) | np.isnan(out).all(axis=1)
+    assert rows_ok.all(), out
+    if noise == 0 and k1 == 0:  # a pinhole believed model: the affine map K K_hat^-1 of the finite pixels
+        want = (pixels - [240 + du, 240 + dv]) / scale + 240
+        ok = np.isfinite(pixels).all(axis=1) & np.isfinite(out).all(axis=1)
+        np.testing.assert_allclose(out[ok], want[ok], rtol=1e-9, atol=1e-6)

@@ -5,6 +5,8 @@ e^T L Jc qdot (large projector, Marey & Chaumette 2010) unchanged to 1e-9 by tas
 the large projector leaves room on a 6-joint arm where the classical one leaves none; joint-limit avoidance pushes a
 joint in its zone back; the caps; refusals; and in the simulator, avoidance keeps a run that hit a joint limit going."""
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -141,6 +143,19 @@ def test_robot_secondary_task_settings():
         g.set_secondary_task(qddot_max=np.ones(3))
     g.clear_secondary_task()
     assert g.secondary_task is None
+
+
+@pytest.mark.parametrize("make", [sim.Gantry.afma6, lambda: sim.UrdfRobot.example("ur5")], ids=["gantry", "ur5"])
+def test_pickled_robot_keeps_its_secondary_task(make):
+    """A sweep's worker (process pool, Dask) gets the robot by pickle: the settings travel with it."""
+    robot = make()
+    assert pickle.loads(pickle.dumps(robot)).secondary_task is None
+    robot.set_secondary_task("large", avoid_joint_limits=False, rho=0.2, qddot_max=4.0, switch_high=0.6)
+    again = pickle.loads(pickle.dumps(robot))
+    a, b = robot.secondary_task, again.secondary_task
+    assert b is not None and a.keys() == b.keys()
+    for key in a:
+        assert np.all(np.asarray(a[key]) == np.asarray(b[key])), key
 
 
 def test_avoidance_turns_a_joint_limit_into_convergence():

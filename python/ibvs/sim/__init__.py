@@ -13,7 +13,8 @@ returns the history as numpy arrays.
 
 A robot carries the camera: sim.Gantry.afma6(), or any arm from its URDF (sim.UrdfRobot, Pinocchio);
 sim.solve_ik(robot, camera_pose, q0) finds its joints for a camera pose (sim.ik). sim.collect_hand_eye moves an
-arm through calibration stations (sim.hand_eye); sim.MiscalibratedRobot drives one with a wrong eMc.
+arm through calibration stations (sim.hand_eye); sim.MiscalibratedRobot drives one with a wrong eMc;
+sim.MiscalibratedCamera gives the servo the image through wrong intrinsics.
 
 Frames and conventions are those of ibvs (camera x right, y down, z forward;
 twist (Tx, Ty, Tz, wx, wy, wz) in the camera frame). Poses are 4x4 world <- camera;
@@ -28,7 +29,7 @@ from .episode import MomentsSource, PbvsSource, Point25DSource
 from .episode import SphericalSource
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
-from .miscalibrated import MiscalibratedRobot
+from .miscalibrated import MiscalibratedCamera, MiscalibratedRobot
 from .poses import pose, pose_deg, rotation
 from .result import OUTCOMES, History, Metrics, Result, RunStatus
 from .urdf import UrdfRobot, example_robot_urdf
@@ -43,6 +44,7 @@ __all__ = [
     "IKResult",
     "LineSource",
     "Metrics",
+    "MiscalibratedCamera",
     "MiscalibratedRobot",
     "MomentsSource",
     "OUTCOMES",

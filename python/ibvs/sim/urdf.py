@@ -178,10 +178,18 @@ class UrdfRobot(_sim.Robot):
 
     def __reduce__(self):
         if self.example_name:
-            return (UrdfRobot.example, (self.example_name, *self._args[2:]))
-        return (UrdfRobot, self._args)
+            return (_rebuilt, (UrdfRobot.example, (self.example_name, *self._args[2:]), self.secondary_task))
+        return (_rebuilt, (UrdfRobot, self._args, self.secondary_task))
 
     def __repr__(self) -> str:
         what = self.example_name or Path(self._args[0]).name
         tail = ", eye_to_hand" if self.mounting == "eye_to_hand" else ""
         return f"UrdfRobot({what!r}, {self.frame_name!r}, {self.dof} joints{tail})"
+
+
+def _rebuilt(make, args, secondary):
+    """Unpickling a UrdfRobot: make(*args), then its secondary task's settings (None: none)."""
+    robot = make(*args)
+    if secondary is not None:
+        robot.set_secondary_task(**secondary)
+    return robot

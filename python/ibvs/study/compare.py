@@ -14,11 +14,15 @@ third-order moments is undefined, and from second-order moments too (mu20 = mu02
 moments task can servo on it (moments_target refuses it). The pose schemes take the true pose
 (depth "exact", times depth_scale): the comparison of the laws, not of a pose estimator.
 
-Studies (the default size, 10 schemes x 76 starts, runs in about 15 s on one core):
+Studies (the default size, 10 schemes x 83 starts, runs in about 15 s on one core):
   * paper: the paper's free-camera cases (x translation, rotation by 180 deg about z, general motion);
   * rotation: rotation about the optical axis from 0 to 180 deg (`rotations` angles, default 19);
   * general: `general` (default 50) random starts of the free world's distribution (seeded);
-  * depth: one general start with every depth (and the pose's translation) scaled by depth_scale.
+  * depth: one general start with every depth (and the pose's translation) scaled by depth_scale;
+  * calibration: the same start seen by a 480x480 pixel camera (focal length 800 px: the same +-0.3 image) whose
+    controller believes wrong intrinsics (CALIBRATIONS: focal length scaled, principal point offset, radial
+    distortion ignored) through ibvs.sim.MiscalibratedCamera, every scheme with the pose depth mode (depths and
+    pose from ibvs.PlanarPose on the points the wrong model gives); the pose schemes' goal pose is given (true).
 Per run: converged (the task's error norm under TOLERANCE), reached (the camera within 1 mm and
 1 mrad of the goal), stayed in the image (no point left the +-0.3 image), camera retreat, camera path
 length, peak camera speeds, final pose error.
@@ -63,6 +67,24 @@ REACHED = (1e-3, 1e-3)  # metres, radians
 DEPTH_SCALES = (0.5, 0.8, 1.25, 2.0)
 #: The start of the depth study: general, every axis.
 DEPTH_START = dict(DEFAULTS, rz_deg=60.0, tilt_deg=8.0, tilt_dir_deg=30.0, tx=0.1, ty=-0.05, tz=-0.3)
+#: The calibration study's true camera: its focal length (px) ...
+FOCAL = 800.0
+#: ... and half its square image's side (px), the principal point at its centre: the normalised +-0.3 image.
+HALF = 240.0
+#: The radial distortion (OpenCV's k1) of the calibration case where the controller ignores it (3.5 % at the
+#: image's corners).
+K1 = -0.2
+#: The calibration errors, label -> (believed focal length / true, believed principal point - true (px),
+#: the true camera has the distortion K1 that the controller ignores). "none": the pose depth mode's baseline.
+CALIBRATIONS = {
+    "none": (1.0, (0.0, 0.0), False),
+    "f ×0.8": (0.8, (0.0, 0.0), False),
+    "f ×0.9": (0.9, (0.0, 0.0), False),
+    "f ×1.1": (1.1, (0.0, 0.0), False),
+    "f ×1.25": (1.25, (0.0, 0.0), False),
+    "c +(24, −16) px": (1.0, (24.0, -16.0), False),
+    "k1 ignored": (1.0, (0.0, 0.0), True),
+}
 
 
 def target() -> sim.Target:
@@ -102,12 +124,28 @@ class Row:
     final_rotation_error: float
 
 
-def run(scheme: str, start: np.ndarray, depth_scale: float = 1.0, setup: Optional[Scenario] = None):
-    """One free-camera run of `scheme` from `start` (4x4 world <- camera): the sim.Result."""
+def cameras(calibration: str) -> tuple:
+    """(the true camera, the camera the controller believes) of a CALIBRATIONS label (ibvs.CameraModel, pixels)."""
+    scale, (du, dv), distorted = CALIBRATIONS[calibration]
+    K = np.array([[FOCAL, 0.0, HALF], [0.0, FOCAL, HALF], [0.0, 0.0, 1.0]])
+    K_hat = np.array([[scale * FOCAL, 0.0, HALF + du], [0.0, scale * FOCAL, HALF + dv], [0.0, 0.0, 1.0]])
+    true = ibvs.CameraModel.from_opencv(K, [K1, 0.0, 0.0, 0.0] if distorted else None, 2 * HALF, 2 * HALF)
+    return true, ibvs.CameraModel.from_opencv(K_hat, None, 2 * HALF, 2 * HALF)
+
+
+def run(scheme: str, start: np.ndarray, depth_scale: float = 1.0, setup: Optional[Scenario] = None,
+        calibration: Optional[str] = None):
+    """One free-camera run of `scheme` from `start` (4x4 world <- camera): the sim.Result. calibration: None,
+    or a CALIBRATIONS label: the pixel camera of cameras(calibration), its controller believing the wrong one
+    (sim.MiscalibratedCamera), with the pose depth mode."""
     setup = setup or scenario()
     servo = schemes.make(scheme, setup.gain, len(setup.target))
-    return sim.run(servo, setup.camera, schemes.target_for(scheme, setup.target), start, setup.goal_pose(),
-                   duration=setup.duration, depth=setup.depth, depth_scale=depth_scale, tolerance=TOLERANCE)
+    camera, depth, vision = setup.camera, setup.depth, None
+    if calibration is not None:
+        camera, believed = cameras(calibration)
+        depth, vision = "pose", sim.MiscalibratedCamera(camera, believed)
+    return sim.run(servo, camera, schemes.target_for(scheme, setup.target), start, setup.goal_pose(),
+                   duration=setup.duration, depth=depth, depth_scale=depth_scale, tolerance=TOLERANCE, vision=vision)
 
 
 def summarise(study: str, start: str, scheme: str, result, depth_scale: float = 1.0) -> Row:
@@ -120,7 +158,8 @@ def summarise(study: str, start: str, scheme: str, result, depth_scale: float = 
 
 
 def starts(rotations: int = 19, general: int = 50, seed: int = 0) -> list[tuple[str, str, np.ndarray, float]]:
-    """(study, label, start pose, depth_scale) of every run (per scheme)."""
+    """(study, label, start pose, depth_scale) of every run (per scheme); the calibration study's label is the
+    CALIBRATIONS label."""
     setup = scenario()
     out = []
     for case in (sim.cases.x_translation(), sim.cases.z_rotation(), sim.cases.general_motion()):
@@ -135,6 +174,8 @@ def starts(rotations: int = 19, general: int = 50, seed: int = 0) -> list[tuple[
         k += 1
     for scale in DEPTH_SCALES:
         out.append(("depth", f"depth x{scale:g}", offset(DEPTH_START), scale))
+    for label in CALIBRATIONS:
+        out.append(("calibration", label, offset(DEPTH_START), 1.0))
     return out
 
 
@@ -146,7 +187,7 @@ def study(rotations: int = 19, general: int = 50, seed: int = 0, schemes_: Seque
     rows = []
     for st, label, start, scale in starts(rotations, general, seed):
         for scheme in schemes_:
-            r = run(scheme, start, scale, setup)
+            r = run(scheme, start, scale, setup, label if st == "calibration" else None)
             rows.append(summarise(st, label, scheme, r, scale))
             if keep is not None and label in ("z_rotation", "general_motion", "rz 150 deg"):
                 keep[(label, scheme)] = r
@@ -166,7 +207,7 @@ def table(rows: Sequence[Row]) -> str:
             + " | ".join(f"pose error, depth ×{s:g} (mm)" for s in DEPTH_SCALES) + " |")
     lines = [head, "|" + "---|" * (9 + len(DEPTH_SCALES))]
     for scheme in dict.fromkeys(r.scheme for r in rows):
-        mine = [r for r in rows if r.scheme == scheme and r.study != "depth"]
+        mine = [r for r in rows if r.scheme == scheme and r.study not in ("depth", "calibration")]
         depth = {r.depth_scale: r for r in rows if r.scheme == scheme and r.study == "depth"}
         n = len(mine)
         retreat = [r.camera_retreat for r in mine]
@@ -185,6 +226,27 @@ def table(rows: Sequence[Row]) -> str:
             r = depth.get(s)
             cells.append("—" if r is None else (f"{r.final_translation_error * 1000:.1f}" if r.in_image else r.outcome))
         lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _cell(r: Row) -> str:
+    """A calibration run's final pose error, or what ended it; "(timeout)" when it had not converged in 20 s."""
+    if not r.in_image:
+        return r.outcome.replace("_", " ")
+    cell = f"{r.final_translation_error * 1000:.1f} mm, {np.degrees(r.final_rotation_error):.2f}°"
+    return cell if r.converged else f"{cell} ({r.outcome.replace('_', ' ')})"
+
+
+def calibration_table(rows: Sequence[Row]) -> str:
+    """Per scheme and calibration error: converged and in-image counts, the final camera pose error."""
+    cal = [r for r in rows if r.study == "calibration"]
+    labels = list(dict.fromkeys(r.start for r in cal))
+    lines = ["| scheme | converged | stayed in image | " + " | ".join(labels) + " |", "|" + "---|" * (3 + len(labels))]
+    for scheme in dict.fromkeys(r.scheme for r in cal):
+        by = {r.start: r for r in cal if r.scheme == scheme}
+        mine = list(by.values())
+        counts = f"{sum(r.converged for r in mine)}/{len(mine)} | {sum(r.in_image for r in mine)}/{len(mine)}"
+        lines.append(f"| `{scheme}` | {counts} | " + " | ".join(_cell(by[x]) for x in labels) + " |")
     return "\n".join(lines)
 
 
@@ -262,11 +324,36 @@ def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
     names.append("compare_depth.png")
     fig.savefig(out / names[-1], dpi=90)
     plt.close(fig)
+
+    cal = [r for r in rows if r.study == "calibration"]
+    if cal:
+        labels = list(dict.fromkeys(r.start for r in cal))
+        fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+        order = list(dict.fromkeys(r.scheme for r in cal))
+        for j, scheme in enumerate(order):
+            by = {r.start: r for r in cal if r.scheme == scheme}
+            x = [labels.index(lab) + 0.6 * (j / max(len(order) - 1, 1) - 0.5) for lab in labels if lab in by]
+            ok = [by[lab] if by[lab].in_image else None for lab in labels if lab in by]
+            marker = "o" if scheme in IMAGE_BASED else ("s" if scheme.startswith("moments") else "^")
+            ax[0].plot(x, [max(r.final_translation_error * 1000, 1e-3) if r else np.nan for r in ok], marker, ms=4,
+                       label=scheme)
+            ax[1].plot(x, [max(np.degrees(r.final_rotation_error), 1e-5) if r else np.nan for r in ok], marker, ms=4,
+                       label=scheme)
+        for a, what in zip(ax, ("final camera position error (mm)", "final camera rotation error (deg)")):
+            a.set(yscale="log", ylabel=what, xticks=range(len(labels)))
+            a.set_xticklabels(labels, rotation=30, fontsize=7)
+        ax[0].set_title("sensitivity to calibration error (missing: a point left the image)", fontsize=9)
+        ax[1].legend(fontsize=7, ncol=2)
+        fig.tight_layout()
+        names.append("compare_calibration.png")
+        fig.savefig(out / names[-1], dpi=90)
+        plt.close(fig)
     return names
 
 
 def moments_limit(rows: Sequence[Row]) -> str:
     """The bullet on the moments task's false goals, from the rows."""
+    rows = [r for r in rows if r.study != "calibration"]
     false = [r for r in rows if r.scheme == "moments" and r.converged and not r.reached]
     n = sum(1 for r in rows if r.scheme == "moments" and r.study != "depth")
     if not false:
@@ -281,6 +368,63 @@ def moments_limit(rows: Sequence[Row]) -> str:
             "this 0.5 m object at 3 m the invariants r1, r2 hardly tell a sideways shift from a turn about the x or y "
             "axis (the smallest singular value of the interaction matrix at the goal is 1.8e-3 against 3.2 for the "
             "largest), so a depth error does not matter there either.")
+
+
+#: The schemes whose task is a function of the image alone (with the depths only in their interaction matrix).
+IMAGE_BASED = ("cartesian", "polar", "stacked", "cylindrical", "partitioned")
+
+
+def calibration_notes(rows: Sequence[Row]) -> str:
+    """The bullet on the calibration study, from its rows."""
+    cal = [r for r in rows if r.study == "calibration"]
+    if not cal:
+        return "- The calibration study did not run."
+    by = {(r.scheme, r.start): r for r in cal}
+    image = [r for r in cal if r.scheme in IMAGE_BASED]
+    done = [r for r in image if r.converged]
+    near = [r for r in image if not r.converged and r.in_image and r.final_translation_error < 1e-3]
+    stuck = [r for r in image if not r.converged and r.in_image and r.final_translation_error >= 1e-3]
+    lost = [r for r in image if not r.in_image]
+    says = lambda rs: ", ".join(f"`{r.scheme}` with {r.start}" for r in rs)  # noqa: E731
+    mm = lambda r: f"{r.final_translation_error * 1000:.0f} mm"  # noqa: E731
+    text = ("- **Calibration errors** (the last table): the image-based laws' error is zero where the image is the "
+            "taught one, so their final pose does not depend on the calibration: every one of their "
+            f"{len(done)} converged runs ended within {max(r.final_translation_error for r in done) * 1000:.1f} mm "
+            f"of the goal, Cartesian IBVS under every error "
+            f"({sum(r.converged for r in image if r.scheme == 'cartesian')}/{len(CALIBRATIONS)}). Their path and "
+            "speed do depend on it, since their interaction matrix is "
+            f"evaluated on the wrong points: {len(near)} runs were within 1 mm of the goal but not yet converged "
+            "after 20 s")
+    if stuck:
+        text += "; " + says(stuck) + " were still " + ", ".join(mm(r) for r in stuck) + " from it"
+    if lost:
+        text += "; " + says(lost) + " lost a point at the image border"
+    pb = [by.get(("pbvs", lab)) for lab in CALIBRATIONS]
+    text += (". PBVS and 2.5-D here carry the pose estimate's bias to the end, the classical sensitivity of a "
+             "position-based law to calibration: the estimate of a planar target seen with a focal length s times "
+             "the true one puts it s times as far, as a depth error s does (PBVS ends "
+             + ", ".join(f"{mm(r)} away with {r.start}" for r in pb if r is not None and r.start.startswith("f "))
+             + ")")
+    c = next((r for r in pb if r is not None and r.start.startswith("c ")), None)
+    k = next((r for r in pb if r is not None and r.start.startswith("k1")), None)
+    if c is not None and k is not None:
+        c25 = by.get(("2.5d", c.start))
+        text += (f"; the principal point's offset shifts the estimate sideways ({mm(c)} for PBVS"
+                 + (f", {mm(c25)} for 2.5-D, whose x, y are the image's" if c25 is not None else "")
+                 + f"), the ignored distortion costs {k.final_translation_error * 1000:.1f} mm and "
+                 f"{np.degrees(k.final_rotation_error):.2f}°")
+    text += (". Taught from the goal image through the same wrong model (not simulated: the simulator's pose sources "
+             "take the true goal pose), the goal pose would carry the same bias, and PBVS would end where the image "
+             "is the goal's, since ibvs.PlanarPose is a function of the image alone; 2.5-D with Z/Z* and the "
+             "rotation from a homography (Malis et al.) likewise.")
+    mom = [r for r in cal if r.scheme == "moments"]
+    if mom:
+        far = [r for r in mom if r.in_image and not r.reached]
+        text += (f" `moments` reached the goal under {sum(r.reached for r in mom)} of the {len(mom)} calibrations"
+                 + (" and settled " + ", ".join(mm(r) for r in far) + " from it (with "
+                    + ", ".join(r.start for r in far) + ": the false goal of the previous bullet)" if far else "")
+                 + ": which equilibrium it reaches depends on its path, which the calibration changes.")
+    return text
 
 
 def wrap(text: str, width: int = 120) -> str:
@@ -307,7 +451,8 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "and its figures: "
         f"{n_runs} runs ({len(set(r.scheme for r in rows))} schemes; the paper's three free-camera cases, "
         f"{rotations} angles about the optical axis from 0 to 180°, {general} random general starts of the free "
-        f"world's distribution (seed 0), {len(DEPTH_SCALES)} depth scales), {seconds:.0f} s on one core. "
+        f"world's distribution (seed 0), {len(DEPTH_SCALES)} depth scales, {len(CALIBRATIONS)} camera calibrations), "
+        f"{seconds:.0f} s on one core. "
         "Larger: `--rotations 37 --general 1000` (10,410 runs, one to two minutes).",
         "",
         "**Set-up.** The paper's free-flying camera (normalised image ±0.3, gain 1, 20 s, exact depth) and one target "
@@ -331,7 +476,7 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "camera's retreat (largest increase of the target's depth along the optical axis), its path length and "
         "peak speeds (medians over the runs). Depth study: one general start (60° about z, 8° tilt, "
         "(0.1, −0.05, −0.3) m) with every depth the controller is given, and the pose's translation, scaled; the "
-        "final camera position error.",
+        "final camera position error. Calibration study: below.",
         "",
         table(rows),
         "",
@@ -344,7 +489,28 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "",
     ]
     for name in figure_names:
-        parts += [f"![{name}](figures/{name})", ""]
+        if name != "compare_calibration.png":
+            parts += [f"![{name}](figures/{name})", ""]
+    parts += [
+        "## Calibration error",
+        "",
+        "The depth study's start seen by a pixel camera — a 480×480 pinhole of focal length 800 px, i.e. the same "
+        "±0.3 image — whose controller believes wrong intrinsics: the focal length scaled, the principal point "
+        "offset, or (last column) a true radial distortion k1 = −0.2 (3.5 % at the image's corners) ignored. "
+        "`ibvs.sim.MiscalibratedCamera` gives the controller every pixel, the goal's included (teach by showing), "
+        "through the wrong model, exactly as a user with that calibration; every scheme takes its depths and pose "
+        "from `ibvs.PlanarPose` on those points (depth mode \"pose\": the same perturbation for all, and `none` "
+        "its baseline). The pose schemes (`pbvs`, `pbvs_object`, `2.5d`) compare that estimated current pose with "
+        "a *given* goal pose (the true c*Mo, and for 2.5-D the goal's true depth Z*), as a user who specifies "
+        "where the camera must end relative to the object; the moments take their plane from the estimated pose. "
+        "Per scheme: runs converged within 20 s and runs whose points stayed in the image, then the final camera "
+        "pose error (position, rotation) or what ended the run; *(timeout)*: not converged within 20 s.",
+        "",
+        calibration_table(rows),
+        "",
+    ]
+    if "compare_calibration.png" in figure_names:
+        parts += ["![compare_calibration.png](figures/compare_calibration.png)", ""]
     parts += [
         "## What shows, and what is tested",
         "",
@@ -367,7 +533,7 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "2.5-D does the same here, because the simulator gives its Z from the depth mode against the goal's true "
         "Z*; with Z/Z* from a homography (as Malis et al. do) the error would not depend on s.",
         moments_limit(rows),
-        "- Calibration errors are not in this study.",
+        calibration_notes(rows),
         "",
     ]
     return wrap("\n".join(parts))
