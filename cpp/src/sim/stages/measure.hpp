@@ -175,9 +175,9 @@ inline void Measure::teach(const Pose& goal, Sensor& sensor, Points& uv_desired,
     if (!m.allFinite())
       throw std::invalid_argument("ibvs: goal: the sensor did not find target point " + std::to_string(i));
     Eigen::Vector3d b;
+    const bool in_plane = camera_.normalize(m(0), m(1), uv);
     const bool on_sphere = camera_.to_bearing(m(0), m(1), b);
-    if (!camera_.normalize(m(0), m(1), uv) && !(bearings_only_ && on_sphere)) fail(i, " is outside the image");
-    if (!on_sphere) fail(i, " is outside the image");
+    if (!(bearings_only_ ? on_sphere : in_plane)) fail(i, " is outside the image");  // as view() loses it
     uv_desired.col(i) = uv;
     goal_bearings_.col(i) = b;
   }
