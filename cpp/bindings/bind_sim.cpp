@@ -16,6 +16,10 @@ using namespace ibvs;
 using namespace ibvs::sim;
 using namespace ibvs::py_convert;
 
+namespace ibvs::py_sources {
+void raise_kept(const Target& t);  // bind_sources.cpp: a Python feature source's exception, after a run
+}
+
 namespace {
 
 using RowMatrix4 = Eigen::Matrix<double, 4, 4, Eigen::RowMajor>;
@@ -349,7 +353,8 @@ void bind_sim(py::module_& m) {
 A Target carries one source per feature block of the servo's Task, in the Task's order
 (Target(points, features=[...])). Each frame a source writes its block's measurement from the true
 pose of the target, the controller's points and what the depth mode knows (docs/simulator.md,
-"Feature sources"). The kinds: LineSource; others are added in C++ (ibvs/sim/source.hpp).)")
+"Feature sources"). The kinds: LineSource, SegmentSource, EllipseSource, MomentsSource, PbvsSource,
+Point25DSource, SphericalSource, and FunctionSource (a Python callable's); others are added in C++ (ibvs/sim/source.hpp).)")
       .def_property_readonly("size", &FeatureSource::size, "Values in one measurement (its Feature's size).")
       .def("__repr__", [](const FeatureSource& f) { return "<ibvs feature source " + f.describe() + ">"; });
 
@@ -653,6 +658,7 @@ it stops the episode and is raised by run().)")
         // A Python sensor's exception, raised instead of the episode's own error or result.
         const auto raise_sensor = [&] {
           if (py_sensor) py_sensor->raise();
+          ibvs::py_sources::raise_kept(target);  // and a Python feature source's (sim.FunctionSource)
         };
         AnyServo sv = servo_copy(servo);
         if (!robot.is_none()) {

@@ -988,6 +988,47 @@ class sim:
         def i(self) -> int:
             """The target point's index."""
 
+    class SegmentSource(FeatureSource):
+        """An image segment (ibvs.SegmentFeature) between target points i and j: the controller's
+        points and the depths the depth mode gives them."""
+
+        def __init__(self, i: int, j: int) -> None: ...
+        @property
+        def i(self) -> int:
+            """The segment's first target point (p1)."""
+        @property
+        def j(self) -> int:
+            """The segment's second target point (p2)."""
+
+    class EllipseSource(FeatureSource):
+        """The image ellipse (ibvs.EllipseFeature) of a 3-D circle fixed to the target (target frame:
+        centre, normal, radius); its plane from the depth mode's pose."""
+
+        def __init__(self, centre: _ArrayLike, normal: _ArrayLike, radius: float) -> None: ...
+        @property
+        def centre(self) -> _FloatArray:
+            """The circle's centre (3,), target frame, metres."""
+        @property
+        def normal(self) -> _FloatArray:
+            """The unit normal of the circle's plane (3,), target frame."""
+        @property
+        def radius(self) -> float:
+            """The circle's radius, metres."""
+
+    class FunctionSource(FeatureSource):
+        """A feature source whose measurement a Python callable gives:
+        measure(frame, cMo, depth_pose, goal, uv, depth) -> the block's measurement or None."""
+
+        def __init__(self, feature: Feature, measure: Any) -> None: ...
+        @property
+        def measure(self) -> Any:
+            """The callable."""
+
+    @staticmethod
+    def plane_in_camera(pose: _ArrayLike, normal: _ArrayLike = ..., d: float = 0.0) -> _FloatArray:
+        """(A, B, C) of 1/Z = A x + B y + C for the plane {X : normal . X = d} of the target frame
+        seen with pose (camera <- target)."""
+
     class Target:
         """Points (N, 3) in the target frame, the target's world pose (4x4) and its feature sources."""
 

@@ -705,6 +705,44 @@ void moments_allocate_nothing() {
   }
 }
 
+// Episodes of segment and circle tasks (SegmentSource, EllipseSource), every depth mode: nothing
+// allocated per frame.
+void shape_sources_episode_allocates_nothing() {
+  using namespace sim_cases;
+  Eigen::Matrix3Xd rim(3, 8);
+  for (int k = 0; k < 8; ++k) rim.col(k) << 0.3 * std::cos(pi * k / 4), 0.3 * std::sin(pi * k / 4), 0.0;
+  for (int kind = 0; kind < 2; ++kind) {
+    for (DepthMode depth : {DepthMode::exact, DepthMode::desired, DepthMode::pose, DepthMode::estimated}) {
+      EpisodeOptions o;
+      o.duration = 3.0;
+      o.noise = 1e-4;
+      o.latency = 1;
+      o.depth = depth;
+      Task task;
+      Target t = kind == 0 ? Target::paper() : Target(rim, Target::paper().pose);
+      if (kind == 0) {
+        for (int i = 0; i < 4; ++i) {
+          task.add(SegmentFeature());
+          t.add(sim::SegmentSource(i, (i + 1) % 4));
+        }
+      } else {
+        task.add(EllipseFeature());
+        task.set_dof(Dof{true, true, true, true, true, false});  // blind to the turn about the circle's axis
+        t.add(sim::EllipseSource(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0.3));
+      }
+      const Pose goal = kind == 0 ? Pose(Pose::Identity()) : make_pose(0.08, -0.05, 0.0, 0.08, -0.06, 0.0);
+      Episode e(Servo(task, ServoOptions{}), CameraModel::normalized(0.3), t, o);
+      const long before = news.load();
+      const Pose start = goal * make_pose(0.1, 0.05, -0.3, 0.03, 0.04, 0.3);
+      const EpisodeResult& r = e.run(start, goal);
+      const long during = news.load() - before;
+      ibvs_test::report(during == 0, "no allocation in Episode::run of a segment / circle task", __FILE__, __LINE__,
+                        task.feature(0).describe() + " " + to_string(depth) + ": " + std::to_string(during));
+      CHECK(r.history.frames > 10);
+    }
+  }
+}
+
 void run_tests() {
   mounting_and_secondary_allocate_nothing();
   smooth_and_lost_allocate_nothing();
@@ -723,6 +761,7 @@ void run_tests() {
   moments_allocate_nothing();
   bearings_allocate_nothing();
   pose_blocks_allocate_nothing();
+  shape_sources_episode_allocates_nothing();
   const Layout hybrid({{0, Representation::cartesian}, {1, Representation::cartesian}, {2, Representation::polar},
                        {3, Representation::polar}});
   const Layout cyl_mixed({{0, Representation::cylindrical}, {0, Representation::polar}, {1, Representation::cartesian},

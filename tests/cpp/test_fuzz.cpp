@@ -644,10 +644,11 @@ void fuzz_task(Bytes& b) {
   }
 }
 
-// Feature sources: a LineSource of any indices on a target of any points is accepted or refused
-// (std::invalid_argument); from any poses and points (and bearings), measure() answers false or
-// finite values (every source); a short episode of a line task from any start either throws std::invalid_argument or
-// ends with finite recorded errors.
+// Feature sources: a LineSource (SegmentSource, EllipseSource) of any indices (centre, normal,
+// radius) on a target of any points is accepted or refused (std::invalid_argument); from any poses
+// and points (and bearings), measure() answers false or finite values (every source); a short
+// episode of a line task from any start either throws std::invalid_argument or ends with finite
+// recorded errors.
 void fuzz_sources(Bytes& b) {
   using namespace ibvs::sim;
   const int n = b.small(1, 5);
@@ -701,6 +702,33 @@ void fuzz_sources(Bytes& b) {
     double ms[20];
     if (src->measure(f, ms))
       for (int i = 0; i < src->size(); ++i) CHECK(std::isfinite(ms[i]));
+  }
+  // Segment and circle sources of any arguments (a zero or negative radius, a zero normal, coincident
+  // points...): refused with std::invalid_argument, or measure() false or finite values its block checks.
+  try {
+    const SegmentSource segment(b.small(-1, 5), b.small(-1, 5));
+    segment.validate(t.points, "fuzz");
+    double ms[6];
+    int entry = -1;
+    if (segment.measure(f, ms)) {
+      for (double v : ms) CHECK(std::isfinite(v));
+      SegmentFeature().check(ms, entry);
+    }
+  } catch (const std::invalid_argument&) {
+  }
+  try {
+    const Eigen::Vector3d centre(b.coordinate(), b.coordinate(), b.byte() < 200 ? 0.0 : b.real());
+    const Eigen::Vector3d normal(b.byte() < 128 ? 0.0 : b.real(), b.byte() < 128 ? 0.0 : b.real(),
+                                 b.byte() < 64 ? 0.0 : b.real());
+    const EllipseSource circle(centre, normal, b.byte() < 40 ? b.real() : b.byte() / 128.0);
+    circle.validate(t.points, "fuzz");
+    double ms[8];
+    int entry = -1;
+    if (circle.measure(f, ms)) {
+      for (double v : ms) CHECK(std::isfinite(v));
+      EllipseFeature().check(ms, entry);
+    }
+  } catch (const std::invalid_argument&) {
   }
   if (b.byte() < 224) return;  // an episode now and then (a few frames)
   Task task;

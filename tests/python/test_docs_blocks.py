@@ -140,6 +140,10 @@ PRINTS = {
     ("docs/arms.md", "ibvs.SecondaryTask(7, projector"): ["active=1", "d|e|^2/dt changed by"],
     ("docs/simulator.md", "sim.LineSource(i, (i + 1) % 4)"): ["lines          converged at frame 368",
                                                                 "points + lines converged at frame 369"],
+    ("docs/simulator.md", "sim.SegmentSource(0, 4), sim.SegmentSource(2, 6)"): [
+        "segments:         converged at frame 392", "disc + diameters: converged at frame 383, 0.004 mm"],
+    ("docs/vision.md", 'vision.blob_source(case.camera, disc, "ellipse")'): [
+        "ellipse from images: converged at frame 361", "moments from images: converged at frame 702, 3.3 mm"],
     ("docs/simulator.md", "noise=0.3, latency=1, seed=7"): [
         "converged at frame 442 (error norm 0.00172 < tolerance 0.002)",
         "converged at frame 377 (worst point 0.931 px from its goal <= tolerance_px 1)",

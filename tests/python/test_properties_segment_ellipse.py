@@ -6,7 +6,7 @@ returns is always accepted by its block; a refusal of the servo is exactly a ref
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -119,3 +119,47 @@ def test_measure_moments_finite_or_refused(moments, plane, pixels):
         assert refused_by_name(e, "moments", "m00", "mu20", "mu11", "mu02", "m10", "m01") or "the moments" in str(e)
         return
     assert finite(m) and block_accepts(ibvs.EllipseFeature(), m)
+
+
+# ---- the simulator's segment and circle sources (sim.SegmentSource, sim.EllipseSource)
+
+def _rim_target(n=8, radius=0.3):
+    a = 2 * np.pi * np.arange(n) / n
+    T = np.eye(4)
+    T[2, 3] = 3.0
+    return ibvs.sim.Target(np.column_stack([radius * np.cos(a), radius * np.sin(a), np.zeros(n)]), T)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from(["segment", "circle"]), st.integers(-2, 5), st.integers(-2, 5),
+       hnp.arrays(np.float64, 3, elements=st.one_of(st.floats(-0.3, 0.3), ENTRY)),
+       hnp.arrays(np.float64, 3, elements=st.one_of(st.sampled_from([0.0, 1.0]), ENTRY)),
+       st.one_of(st.floats(-0.5, 0.5), ENTRY), hnp.arrays(np.float64, 6, elements=st.floats(-1.0, 1.0)),
+       st.sampled_from(["exact", "pose", "estimated", "desired"]))
+def test_segment_and_circle_sources_finite_or_refused(kind, i, j, centre, normal, radius, twist, depth):
+    """A SegmentSource(i, j) on the paper's square or an EllipseSource(centre, normal, radius) on a rim target,
+    any arguments (coincident or missing points, a zero or negative radius, a zero normal, a circle seen
+    edge-on), then a short episode from any start and depth mode: refused with ValueError / TypeError naming
+    the argument (or the goal it cannot be measured at), or finite measurements and errors."""
+    sim = ibvs.sim
+    try:
+        if kind == "segment":
+            target = sim.Target.paper().with_features([sim.SegmentSource(i, j)])
+            block = ibvs.SegmentFeature()
+        else:
+            target = _rim_target().with_features([sim.EllipseSource(centre, normal, radius)])
+            block = ibvs.EllipseFeature()
+    except (ValueError, TypeError) as e:
+        assert refused_by_name(e, "i", "j", "centre", "normal", "radius", "sources"), e
+        return
+    try:
+        r = sim.run(ibvs.Servo(ibvs.Task().add(block), gain=1.0), sim.Camera.normalized(0.3), target,
+                    ibvs.se3_exp(0.3 * twist), np.eye(4), duration=0.1, depth=depth, stop_on_singular=False)
+    except ValueError as e:
+        assert refused_by_name(e, "goal"), e
+        return
+    assert r.status.outcome in sim.OUTCOMES
+    h = r.history
+    ok = np.isfinite(h.error_norm)
+    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
+    assert np.isfinite(h.twist).all()

@@ -39,6 +39,21 @@ std::array<double, 8> EllipseFeature::project_circle(const Eigen::Vector3d& cent
   if (!(centre.z() - spread >= min_depth) || !(centre.z() + spread <= max_depth))
     refuse("the circle must lie wholly at depths within [" + detail::number(min_depth) + ", " +
            detail::number(max_depth) + "] m (in front of the camera)");
+  std::array<double, 8> m;
+  if (!project_circle(centre, normal, radius, m.data())) refuse("the circle's image is not an ellipse");
+  return checked(m, "the circle");
+}
+
+bool EllipseFeature::project_circle(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, double radius,
+                                    double* m) noexcept {
+  if (!centre.allFinite() || !normal.allFinite() || !(normal.norm() > 0.0) || !(radius > 0.0) ||
+      !std::isfinite(radius))
+    return false;
+  const Eigen::Vector3d n = normal.normalized();
+  const double d = n.dot(centre);
+  if (!(std::abs(d) >= min_depth)) return false;  // the plane through the camera centre: seen edge-on
+  const double spread = radius * std::hypot(n.x(), n.y());
+  if (!(centre.z() - spread >= min_depth) || !(centre.z() + spread <= max_depth)) return false;
   // An image point x~ = (x, y, 1) sees the plane at X = (d / n.x~) x~, on the circle when
   // |d x~ - (n.x~) X0|^2 = r^2 (n.x~)^2: a conic. Written about the centre's image x0 = X0 / Z0
   // (x~ = x0~ + (u, 0)), where the terms of size |X0|^2 cancel exactly, and divided by d^2:
@@ -50,14 +65,19 @@ std::array<double, 8> EllipseFeature::project_circle(const Eigen::Vector3d& cent
       Eigen::Matrix<double, 3, 2>::Identity() - centre * a2.transpose();  // (I - X0 a^T) e1, e2
   const double r2 = radius * radius, iz = 1.0 / centre.z();
   const Eigen::Matrix2d M = G.transpose() * G - r2 * a2 * a2.transpose();
-  if (!(M.determinant() > 0.0) || !(M.trace() > 0.0)) refuse("the circle's image is not an ellipse");
+  if (!(M.determinant() > 0.0) || !(M.trace() > 0.0)) return false;  // a parabola or hyperbola: not an ellipse
   const Eigen::Matrix2d Mi = M.inverse();
   // Centre u_g = -M^-1 b; the ellipse (u - u_g)^T M (u - u_g) = k, k = b^T M^-1 b - c; N = k M^-1 / 4.
   const Eigen::Vector2d ug = (r2 * iz) * (Mi * a2);
   const double k = r2 * iz * iz * (1.0 + r2 * a2.dot(Mi * a2));
   const Eigen::Matrix2d N = 0.25 * k * Mi;
-  return checked({centre.x() * iz + ug.x(), centre.y() * iz + ug.y(), N(0, 0), N(0, 1), N(1, 1), a.x(), a.y(), a.z()},
-                 "the circle");
+  const double out[8] = {centre.x() * iz + ug.x(), centre.y() * iz + ug.y(), N(0, 0), N(0, 1), N(1, 1),
+                         a.x(), a.y(), a.z()};
+  for (int r = 0; r < 8; ++r) {
+    if (!std::isfinite(out[r])) return false;
+    m[r] = out[r];
+  }
+  return true;
 }
 
 std::array<double, 8> EllipseFeature::measure_moments(const std::array<double, 6>& mo, double A, double B, double C,

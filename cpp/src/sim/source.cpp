@@ -1,8 +1,12 @@
 #include "ibvs/sim/source.hpp"
 
+#include "ibvs/features.hpp"
 #include "ibvs/features/line.hpp"
 #include "ibvs/features/spherical.hpp"
+#include "ibvs/features/segment.hpp"
 #include "ibvs/limits.hpp"
+
+#include "../checks.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -235,6 +239,79 @@ bool SphericalSource::measure(const SourceFrame& f, double* m) const noexcept {
   m[2] = b(2);
   m[3] = R;
   return true;
+}
+
+}  // namespace ibvs::sim
+
+// ---------------------------------------------------------------- segments and circles
+
+namespace ibvs::sim {
+
+SegmentSource::SegmentSource(int i, int j) : i_(i), j_(j) {
+  if (i < 0 || j < 0) throw std::invalid_argument("ibvs: segment: point indices i, j must be >= 0");
+  if (i == j)
+    throw std::invalid_argument("ibvs: segment: i and j must be two distinct points, got " + std::to_string(i) +
+                                " twice");
+}
+
+std::string SegmentSource::describe() const {
+  return "segment(" + std::to_string(i_) + ", " + std::to_string(j_) + ")";
+}
+
+bool SegmentSource::fits(const Feature& f) const noexcept { return dynamic_cast<const SegmentFeature*>(&f) != nullptr; }
+
+void SegmentSource::validate(const Eigen::Matrix3Xd& points, const std::string& name) const {
+  const int n = static_cast<int>(points.cols());
+  for (int p : {i_, j_})
+    if (p >= n)
+      throw std::invalid_argument("ibvs: " + name + ": point " + std::to_string(p) +
+                                  " is not a target point (the target has " + std::to_string(n) + ")");
+  const Eigen::Vector3d a = points.col(i_), b = points.col(j_);
+  if ((b - a).norm() <= 1e-12 * std::max({1.0, a.norm(), b.norm()}))
+    throw std::invalid_argument("ibvs: " + name + ": its points i = " + std::to_string(i_) + " and j = " +
+                                std::to_string(j_) + " coincide (a segment of zero length)");
+}
+
+bool SegmentSource::measure(const SourceFrame& f, double* m) const noexcept {
+  // SegmentFeature::measure's arithmetic, without its throws: Feature::check refuses the rest.
+  const auto& uv = *f.uv;
+  const double x1 = uv(0, i_), y1 = uv(1, i_), x2 = uv(0, j_), y2 = uv(1, j_);
+  const double dx = x2 - x1, dy = y2 - y1, l = std::hypot(dx, dy);
+  if (!(l >= min_segment_length)) return false;  // seen end-on: no orientation
+  m[0] = 0.5 * (x1 + x2);
+  m[1] = 0.5 * (y1 + y2);
+  m[2] = l;
+  m[3] = polar_angle(dx, dy);
+  m[4] = (*f.depth)(i_);
+  m[5] = (*f.depth)(j_);
+  return finite(m, 6);
+}
+
+EllipseSource::EllipseSource(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, double radius)
+    : centre_(centre), radius_(radius) {
+  if (!centre.allFinite()) throw std::invalid_argument("ibvs: ellipse source: centre must be finite");
+  if (!normal.allFinite() || !(normal.norm() > 0.0) || !std::isfinite(normal.squaredNorm()))
+    throw std::invalid_argument("ibvs: ellipse source: normal must be finite and of nonzero length");
+  if (!(radius > 0.0) || !std::isfinite(radius))
+    throw std::invalid_argument("ibvs: ellipse source: radius must be finite and > 0, got " + detail::number(radius));
+  normal_ = normal.normalized();
+}
+
+std::string EllipseSource::describe() const {
+  return "circle(centre " + detail::number(centre_.x()) + " " + detail::number(centre_.y()) + " " +
+         detail::number(centre_.z()) + ", radius " + detail::number(radius_) + ")";
+}
+
+bool EllipseSource::fits(const Feature& f) const noexcept { return dynamic_cast<const EllipseFeature*>(&f) != nullptr; }
+
+bool EllipseSource::measure(const SourceFrame& f, double* m) const noexcept {
+  const Eigen::Matrix3d R = f.cMo.topLeftCorner<3, 3>();
+  const Eigen::Vector3d c = R * centre_ + f.cMo.topRightCorner<3, 1>(), n = R * normal_;
+  double plane[3];
+  if (!EllipseFeature::project_circle(c, n, radius_, m)) return false;
+  if (!known(f.depth_pose) || !plane_in_camera(f.depth_pose, normal_, normal_.dot(centre_), plane)) return false;
+  for (int r = 0; r < 3; ++r) m[5 + r] = plane[r];
+  return finite(m, 8);
 }
 
 }  // namespace ibvs::sim

@@ -27,6 +27,7 @@ from . import cases
 from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
 from .episode import MomentsSource, PbvsSource, Point25DSource
 from .episode import SphericalSource
+from .episode import EllipseSource, FunctionSource, SegmentSource, plane_in_camera
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
 from .miscalibrated import MiscalibratedCamera, MiscalibratedRobot
@@ -36,7 +37,9 @@ from .urdf import UrdfRobot, example_robot_urdf
 
 __all__ = [
     "Camera",
+    "EllipseSource",
     "FeatureSource",
+    "FunctionSource",
     "Gantry",
     "HandEyeData",
     "HandEyeScene",
@@ -53,6 +56,7 @@ __all__ = [
     "Result",
     "Robot",
     "RunStatus",
+    "SegmentSource",
     "Sensor",
     "SphericalSource",
     "Target",
@@ -61,6 +65,7 @@ __all__ = [
     "collect_hand_eye",
     "example_robot_urdf",
     "hand_eye_scene",
+    "plane_in_camera",
     "pose",
     "pose_deg",
     "rotation",

@@ -27,6 +27,10 @@ MomentsSource = _sim.MomentsSource
 PbvsSource = _sim.PbvsSource
 Point25DSource = _sim.Point25DSource
 SphericalSource = _sim.SphericalSource
+SegmentSource = _sim.SegmentSource
+EllipseSource = _sim.EllipseSource
+FunctionSource = _sim.FunctionSource
+plane_in_camera = _sim.plane_in_camera
 
 
 _REPRESENTATION_NAMES = {"cartesian": "Cartesian", "polar": "polar", "cylindrical": "cylindrical"}

@@ -14,12 +14,14 @@ column c and row r is (u, v) = (c, r). A camera for images has a pixel sensor wh
 
 Modules: images (cameras with images, image checks), renderer (Renderer; rays: its path for fisheye and
 omnidirectional lenses, through each pixel's bearing), track (Track), dots
-(DotTracker), tag (TagDetector), moments (image_moments: a binary image's moments), sensor (ImageSensor), video (draw_points, write_video); this
+(DotTracker), tag (TagDetector), moments (image_moments: a binary image's moments), blob (blob_source: blob
+moments and ellipses from rendered images, for sim.Target(features=...)), sensor (ImageSensor), video (draw_points, write_video); this
 package re-exports their public names. Rendering is described in ibvs.vision.renderer.
 """
 
 from __future__ import annotations
 
+from .blob import BLOB_FEATURES, BlobMeasure, blob_source
 from .dots import DotTracker
 from .images import check_image, image_camera
 from .moments import image_moments
@@ -30,12 +32,15 @@ from .track import Track
 from .video import draw_points, write_video
 
 __all__ = [
+    "BLOB_FEATURES",
     "KINDS",
+    "BlobMeasure",
     "DotTracker",
     "ImageSensor",
     "Renderer",
     "TagDetector",
     "Track",
+    "blob_source",
     "check_image",
     "draw_points",
     "image_camera",

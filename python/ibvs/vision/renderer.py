@@ -32,8 +32,10 @@ from .tag import TAG_DICTIONARIES
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["KINDS", "Renderer"]
 
-#: What the renderer draws: white dots on a dark plate, or a square fiducial tag.
-KINDS = ("dots", "tag")
+#: What the renderer draws: white dots on a dark plate, a square fiducial tag, or one white blob on a dark
+#: plate: the disc whose rim holds the target's points ("disc") or the polygon whose vertices they are
+#: ("polygon"), for image moments and ellipses (ibvs.vision.blob).
+KINDS = ("dots", "tag", "disc", "polygon")
 
 
 class Renderer:
@@ -48,7 +50,10 @@ class Renderer:
                    "tag": a square marker of `dictionary` (AprilTag 36h11) with id tag_id whose
                    outer corners are the target's 4 points, in cv2.aruco's order (top-left,
                    top-right, bottom-right, bottom-left as seen by the camera: (-,-), (+,-),
-                   (+,+), (-,+) in the target frame, the order of Target.square), on a white plate
+                   (+,+), (-,+) in the target frame, the order of Target.square), on a white plate;
+                   "disc": one white disc on a dark plate, the disc whose rim holds the target's points
+                   (its centre their mean, its radius their distance from it: points on a circle);
+                   "polygon": one white filled polygon whose vertices are the target's points, in order
       blur         defocus: std (px) of a Gaussian blur, 0 = sharp
       exposure     motion blur: exposure time (s) over which render(pose, twist) averages the
                    camera moving with `twist` (5 sub-frames), 0 = none
@@ -112,6 +117,15 @@ class Renderer:
                     f"got {self.dot_radius!r}"
                 )
             lo, hi = xy.min(0) - 3 * self.dot_radius, xy.max(0) + 3 * self.dot_radius
+            self.background = self.BACKGROUND
+        elif kind in ("disc", "polygon"):
+            self.dot_radius = None
+            self._disc = _disc_of(xy) if kind == "disc" else None
+            flat = len(xy) < 3 or abs(_shoelace(xy)) <= 1e-12 * max(np.ptp(xy), 1e-300) ** 2
+            if kind == "polygon" and flat:
+                raise ValueError("target: a polygon needs 3 or more points enclosing a nonzero area")
+            margin = 0.15 * max(float(np.ptp(xy, axis=0).max()), 1e-9)
+            lo, hi = xy.min(0) - margin, xy.max(0) + margin
             self.background = self.BACKGROUND
         else:
             self.dot_radius = None
@@ -202,6 +216,18 @@ class Renderer:
                 # coverage of each texel by the disc: the signed distance of its centre to the edge, in texels
                 cover = np.clip(0.5 + rad - np.hypot(cc - cx, rr - cy), 0.0, 1.0)
                 tex[r0:r1, c0:c1] += (self.DOT - self.PLATE) * cover.astype(np.float32)
+        elif self.kind == "disc":  # the dots' coverage, for one disc
+            (x, y), R = self._disc
+            tex = np.full((rows, cols), self.PLATE, np.float32)
+            cx, cy, rad = (x - lo[0]) / d0 - 0.5, (y - lo[1]) / d0 - 0.5, R / d0
+            cc, rr = np.meshgrid(np.arange(cols), np.arange(rows))
+            cover = np.clip(0.5 + rad - np.hypot(cc - cx, rr - cy), 0.0, 1.0)
+            tex += (self.DOT - self.PLATE) * cover.astype(np.float32)
+        elif self.kind == "polygon":  # anti-aliased fill, vertices to 1/256 texel
+            mask = np.zeros((rows, cols), np.uint8)
+            v = np.round(((xy - lo) / d0 - 0.5) * 256).astype(np.int32)
+            cv2.fillPoly(mask, [v.reshape(-1, 1, 2)], 255, lineType=cv2.LINE_AA, shift=8)
+            tex = self.PLATE + (self.DOT - self.PLATE) / 255.0 * mask.astype(np.float32)
         else:
             # the marker's modules fall on whole texels: no resampling of the marker itself
             side, dic, modules, per_module, quiet = self._tag
@@ -436,12 +462,37 @@ class Renderer:
             f"dots r={self.dot_radius:g} m"
             if self.kind == "dots"
             else f"tag {self.dictionary} id {self.tag_id}"
+            if self.kind == "tag"
+            else f"disc r={self._disc[1]:g} m"
+            if self.kind == "disc"
+            else f"polygon of {len(self.target)} vertices"
         )
         return (
             f"Renderer({what}, {self.size[0]}x{self.size[1]}, blur={self.blur:g} px, "
             f"exposure={self.exposure:g} s, "
             f"noise={self.noise:g})"
         )
+
+
+def _shoelace(xy: np.ndarray) -> float:
+    """The signed area of the polygon whose vertices are xy (N, 2), in order."""
+    x, y = xy[:, 0], xy[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def _disc_of(xy: np.ndarray) -> Tuple[np.ndarray, float]:
+    """The centre and radius of the circle through the points xy (N, 2), N >= 3, or a clear error."""
+    if len(xy) < 3:
+        raise ValueError(f"target: a disc's rim needs 3 or more points, the target has {len(xy)}")
+    c = xy.mean(0)
+    r = np.linalg.norm(xy - c, axis=1)
+    R = float(r.mean())
+    if not (R > 0) or np.abs(r - R).max() > 1e-9 * R:
+        raise ValueError(
+            "target: a disc's points must lie on a circle about their mean in the target's z = 0 plane "
+            "(e.g. evenly spaced on its rim)"
+        )
+    return c, R
 
 
 def _tag_side(xy: np.ndarray) -> float:

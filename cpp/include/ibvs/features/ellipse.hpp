@@ -53,6 +53,11 @@ class EllipseFeature final : public Feature {
   /// at depths in [min_depth, max_depth], or an image the measurement would refuse.
   static std::array<double, 8> project_circle(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
                                               double radius);
+  /// The same measurement into m (8 doubles), noexcept and allocation-free (the simulator's
+  /// per-frame path): false (m untouched) where project_circle throws, except that the
+  /// measurement is not checked (Feature::check does that).
+  static bool project_circle(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, double radius,
+                             double* m) noexcept;
   /// The measurement of a planar blob from its image moments: `moments` = (m00, m10, m01, mu20,
   /// mu11, mu02), the area, the first-order moments and the centred second-order moments (as
   /// cv2.moments names them), in the units of `camera`: pixels of a camera without lens

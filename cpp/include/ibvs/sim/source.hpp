@@ -52,6 +52,7 @@
 
 #include "ibvs/camera_model.hpp"
 #include "ibvs/feature.hpp"
+#include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/moments.hpp"
 #include "ibvs/features/pose.hpp"
 #include "ibvs/layout.hpp"
@@ -201,6 +202,53 @@ class SphericalSource final : public FeatureSource {
 
  private:
   int i_;
+};
+
+/// An image segment (SegmentFeature, either set) between target points i and j: (xc, yc, l, alpha)
+/// of the controller's points uv(i) -> uv(j) (SegmentFeature::measure) and the end points' depths
+/// Z1, Z2 as the depth mode gives them. Lost when the two image points are closer than
+/// min_segment_length (the segment seen end-on).
+class SegmentSource final : public FeatureSource {
+ public:
+  SegmentSource(int i, int j);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<SegmentSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return 6; }
+  bool fits(const Feature& f) const noexcept override;
+  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+
+  int i() const noexcept { return i_; }
+  int j() const noexcept { return j_; }
+
+ private:
+  int i_, j_;
+};
+
+/// The image ellipse (EllipseFeature) of a 3-D circle fixed to the target (target frame: centre,
+/// normal of its plane, radius, metres): (xg, yg, n20, n11, n02) of the circle's exact image from
+/// the true pose cMo (EllipseFeature::project_circle: the geometry, without the sensor's noise),
+/// the plane (A, B, C) of the circle from the depth pose. Give the target points on the circle's
+/// rim: the episode judges visibility on them. Lost when the circle's image is not an ellipse (its
+/// plane seen edge-on, part of it behind the camera) or the depth pose is unknown.
+class EllipseSource final : public FeatureSource {
+ public:
+  /// Throws std::invalid_argument naming the argument: a non-finite centre, a normal of zero length
+  /// (or not finite), a radius <= 0 (or not finite).
+  EllipseSource(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, double radius);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<EllipseSource>(*this); }
+  std::string describe() const override;
+  int size() const noexcept override { return 8; }
+  bool fits(const Feature& f) const noexcept override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+
+  const Eigen::Vector3d& centre() const noexcept { return centre_; }
+  const Eigen::Vector3d& normal() const noexcept { return normal_; }  ///< unit length
+  double radius() const noexcept { return radius_; }
+
+ private:
+  Eigen::Vector3d centre_, normal_;
+  double radius_;
 };
 
 }  // namespace ibvs::sim
