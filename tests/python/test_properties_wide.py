@@ -83,3 +83,25 @@ def test_spherical_measurements_finite_or_refused(px, R):
         assert np.isfinite(m).all()
     except ValueError as e:
         assert refused_by_name(e, "pixels[0]", "pixels[1]", "distance[0]", "distance[1]"), e
+
+
+@settings(max_examples=60, deadline=None)
+@given(hnp.arrays(np.float64, 3, elements=st.floats(-4.0, 4.0)),
+       hnp.arrays(np.float64, 3, elements=st.floats(-3.0, 3.0)),
+       st.sampled_from(["cartesian", "polar_per_point", "spherical", "spherical_stacked"]),
+       hnp.arrays(np.float64, (4, 4), elements=ENTRY))
+def test_wide_study_runs_finite_or_refused(rotation, translation, scheme, junk):
+    """ibvs.study.wide.run: any rigid start ends in one of its outcomes with finite metrics; a start that is
+    not a finite rigid transform is refused, naming it."""
+    from ibvs.study import wide
+
+    T = ibvs.se3_exp(np.r_[translation, rotation])
+    o, _ = wide.run(scheme, T, duration=0.2)
+    assert o.outcome in ("converged", "timeout", "diverged", "collision", "target_backside", "left_image",
+                         "left_perspective", "cannot_see", "singular")
+    assert all(np.isfinite([o.camera_retreat, o.path_length, o.peak_linear_speed, o.peak_angular_speed,
+                            o.final_translation_error, o.final_rotation_error]))
+    try:
+        wide.run(scheme, junk, duration=0.2)
+    except ValueError as e:
+        assert "start" in str(e)

@@ -5,6 +5,7 @@
     ibvs bench [...]                              control-step timings, bindings vs numpy
     ibvs sweep --out F.csv [--scenario S.toml]    thousands of episodes per scheme, aggregate tables
     ibvs compare --out DIR [--docs]               every law against the half-turn and the retreat, side by side
+    ibvs wide --out DIR [--docs]                  a 220-degree fisheye: perspective against spherical features
     ibvs replay BAG --out twists.csv              a ROS 2 bag's images through a tracker and the servo
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
@@ -52,6 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("compare", help="IBVS, IBVS-P, stacked, cylindrical, partitioned, moments, 2.5-D and PBVS side by "
                                    "side (python -m ibvs.study.compare --help)", add_help=False)
+    sub.add_parser("wide", help="a 220-degree fisheye servoed on perspective and on spherical features "
+                                "(python -m ibvs.study.wide --help)", add_help=False)
     b = sub.add_parser("bench", help="time the control step through the bindings next to numpy",
                        description="Time the control step through the bindings next to a numpy reference.")
     b.add_argument("args", nargs="*", help="options of python -m ibvs.bench (see python -m ibvs.bench --help)")
@@ -95,6 +98,10 @@ def _main(argv: list[str]) -> int:
         from ..study import compare
 
         return compare.main(argv[1:])
+    if argv[:1] == ["wide"]:
+        from ..study import wide
+
+        return wide.main(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.cmake_dir:

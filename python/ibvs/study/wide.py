@@ -1,0 +1,813 @@
+"""The wide-field study of issue 23: a 220-degree equidistant fisheye servoed on perspective features
+(normalised image points: Cartesian, polar, polar with per-point angle wraps, stacked) and on features
+on the sphere (spherical Cartesian, spherical-polar, both stacked), on the same free-camera starts.
+
+    python -m ibvs.study.wide --out DIR [--rotations 19] [--general 200] [--docs]
+    ibvs wide --out DIR ...
+
+Camera: an equidistant fisheye without distortion whose image circle (110 degrees off the axis, a
+220-degree lens) fills a square sensor; the paper's square target (+-0.25 m, 3 m in front of the goal
+camera). Every scheme measures the target's pixels through the lens model: the perspective schemes
+normalise them (CameraModel.normalize: x = X/Z, which exists only in front of the camera, below 90
+degrees off the axis), the spherical ones lift them to bearings (ibvs.spherical_measurements).
+
+Starts: the paper's free-camera cases (x translation, half-turn about the optical axis, general
+motion), rotations about the optical axis from 0 to 180 degrees, and `general` random starts whose
+camera is tilted by up to 100 degrees (the target up to about 105 degrees off the axis). A start with a
+point at 90 degrees or more off the axis has no normalised coordinates, and ibvs refuses them beyond
+|x|, |y| = 10 (84 degrees): the perspective schemes cannot see it ("cannot_see", counted, not run).
+Per run: converged (error norm under TOLERANCE), reached (within 1 mm and 1 mrad of the goal), stayed
+in view, camera retreat, path length, peak speeds of the commanded twist.
+
+The loop is the simulator's (ibvs.sim.run) for a free-flying camera — the twist held for a frame,
+T <- T exp(v dt), the same stopping rules — written here in Python because the simulator measures
+perspective points only (it ends a run when a point's depth falls below 1 mm);
+tests/python/test_wide.py checks that it reproduces ibvs.sim.run on the perspective schemes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+import ibvs
+
+from .. import sim
+from . import schemes
+from .compare import wrap
+from .scenario import DEFAULTS, offset
+
+__all__ = ["ANGLE_BINS", "DURATION", "FPS", "GAIN", "HALF_FOV", "NAMES", "PERSPECTIVE", "PERSPECTIVE_LIMIT",
+           "PINHOLE_HALF_FOV", "RANGES", "REACHED", "SCHEMES", "SENSOR", "SPHERICAL", "TOLERANCE", "Outcome", "Row",
+           "Trace", "angle_table", "camera", "cannot_see", "case_table", "figures", "findings", "in_camera", "main",
+           "make", "off_axis", "page", "perspective_sees", "run", "sample", "start_pose", "starts", "starts_table",
+           "study", "summarise", "summary", "table", "target_points"]
+
+#: The lens's half field of view (radians): its image circle.
+HALF_FOV = math.radians(110.0)
+#: The square sensor's side (pixels); the image circle touches its sides.
+SENSOR = 1024
+
+#: The runs: gain (1/s), frames per second, seconds, error-norm tolerance, and "reached": within (metres,
+#: radians) of the goal pose.
+GAIN = 1.0
+FPS = 60.0
+DURATION = 30.0
+TOLERANCE = 1e-6
+REACHED = (1e-3, 1e-3)
+#: ibvs's domain of normalised coordinates, |X/Z|, |Y/Z| <= 10 (ibvs::max_normalized_coordinate, limits.hpp:
+#: 84 to 86 degrees off the axis); beyond it, and behind the image plane, a perspective feature is refused.
+PERSPECTIVE_LIMIT = 10.0
+
+#: The simulator's stopping rules: diverged beyond MAX_DISTANCE_RATIO times the start distance to the target
+#: or MAX_ERROR_RATIO times the start error norm; collision within STANDOFF times the goal depth of its centre.
+MAX_DISTANCE_RATIO = 10.0
+MAX_ERROR_RATIO = 100.0
+STANDOFF = 0.05
+#: The random starts: rotation about the optical axis, tilt (its direction uniform) and translation.
+RANGES = {"rz_deg": (0.0, 180.0), "tilt_deg": (0.0, 100.0), "tilt_dir_deg": (0.0, 360.0),
+          "tx": (-0.2, 0.2), "ty": (-0.2, 0.2), "tz": (-0.5, 0.5)}
+#: A conventional perspective camera for comparison: 90 degrees across (45 off the axis).
+PINHOLE_HALF_FOV = math.radians(45.0)
+
+#: The schemes: on normalised image points, on the sphere, and all of them; their names in the tables.
+PERSPECTIVE = ("cartesian", "polar", "polar_per_point", "stacked")
+SPHERICAL = ("spherical", "spherical_polar", "spherical_stacked")
+SCHEMES = PERSPECTIVE + SPHERICAL
+NAMES = {"cartesian": "IBVS (x, y)", "polar": "IBVS-P (r, θ)", "polar_per_point": "IBVS-P, θ wrapped per point",
+         "stacked": "stacked (x, y, r, θ)", "spherical": "spherical (bx, by, bz)",
+         "spherical_polar": "spherical-polar (β, φ)",
+         "spherical_stacked": "spherical stacked (b, β, φ)"}
+#: Outcomes that mean a point went out of the features' domain.
+OUT_OF_VIEW = ("left_image", "left_perspective")
+
+
+def camera() -> ibvs.CameraModel:
+    """The study's lens: equidistant (r = f theta), no distortion, the 110-degree circle inscribed in a
+    SENSOR x SENSOR image."""
+    f = (SENSOR / 2) / HALF_FOV
+    c = SENSOR / 2
+    return ibvs.CameraModel.from_opencv(np.array([[f, 0.0, c], [0.0, f, c], [0.0, 0.0, 1.0]]), [0.0] * 4, SENSOR,
+                                        SENSOR, fisheye=True, fps=FPS)
+
+
+def target_points() -> np.ndarray:
+    """The paper's square (world frame, metres): (+-0.25, +-0.25, 3)."""
+    return np.asarray(sim.Target.paper().world_points(), dtype=float)
+
+
+def _task(kinds) -> ibvs.Servo:
+    task = ibvs.Task()
+    for _ in range(4):
+        for k in kinds:
+            task.add(k())
+    return ibvs.Servo(task, gain=GAIN, damping=0.0)
+
+
+def make(scheme: str):
+    """A servo of `scheme` for the square's four points. polar_per_point: IBVS-P whose theta errors are
+    each wrapped into (-pi, pi] alone (angle_wrap="per_point"), as a SphericalPolarFeature wraps its azimuth;
+    `polar` chooses one branch for all points (the consistent wrap, paper eq. 13)."""
+    if scheme == "polar_per_point":
+        return ibvs.Servo(ibvs.Layout.polar(4), gain=GAIN, damping=0.0, angle_wrap="per_point")
+    if scheme in PERSPECTIVE:
+        return schemes.make(scheme, GAIN, 4)
+    kinds = {"spherical": (ibvs.SphericalPointFeature,), "spherical_polar": (ibvs.SphericalPolarFeature,),
+             "spherical_stacked": (ibvs.SphericalPointFeature, ibvs.SphericalPolarFeature)}
+    if scheme not in kinds:
+        raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
+    return _task(kinds[scheme])
+
+
+def off_axis(P: np.ndarray) -> np.ndarray:
+    """The angle (radians) of camera-frame points (N, 3) off the optical axis."""
+    return np.arctan2(np.hypot(P[:, 0], P[:, 1]), P[:, 2])
+
+
+def in_camera(T_wc: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """World points (N, 3) in the frame of the camera at T_wc (world <- camera)."""
+    R, t = T_wc[:3, :3], T_wc[:3, 3]
+    return (points - t) @ R
+
+
+def perspective_sees(P: np.ndarray) -> bool:
+    """Whether the perspective features of camera-frame points P (N, 3) exist: every point in front of the
+    camera (Z > 0) with |X/Z|, |Y/Z| <= PERSPECTIVE_LIMIT."""
+    return bool(np.all(np.maximum(np.abs(P[:, 0]), np.abs(P[:, 1])) <= PERSPECTIVE_LIMIT * P[:, 2]))
+
+
+def cannot_see(T_wc: np.ndarray) -> bool:
+    """Whether the perspective schemes cannot see the target from pose T_wc (perspective_sees)."""
+    return not perspective_sees(in_camera(T_wc, target_points()))
+
+
+@dataclass
+class Trace:
+    """A run's history: camera poses (K, 4, 4), twists (K, 6), pixels (K, 4, 2), error norms (K,)."""
+
+    pose: np.ndarray
+    twist: np.ndarray
+    pixels: np.ndarray
+    error_norm: np.ndarray
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a run did: the metrics of ibvs.sim.Metrics (retreat measured as a distance, see run(); the peak
+    speeds are the commanded twist's, Metrics.peak_commanded_*)."""
+
+    outcome: str
+    frames: int
+    camera_retreat: float
+    axial_retreat: float
+    path_length: float
+    peak_linear_speed: float
+    peak_angular_speed: float
+    final_translation_error: float
+    final_rotation_error: float
+
+
+def _measure(scheme: str, cam, P: np.ndarray):
+    """(pixels, the servo's inputs) of camera-frame points P through the lens."""
+    pixels = cam.from_bearing(P)
+    if scheme in PERSPECTIVE:
+        return pixels, (cam.normalize(pixels), P[:, 2].copy())
+    m = ibvs.spherical_measurements(cam, pixels, np.linalg.norm(P, axis=1))
+    return pixels, (np.repeat(m, 2, axis=0) if scheme == "spherical_stacked" else m).ravel()
+
+
+def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, duration: float = DURATION,
+        tolerance: float = TOLERANCE, trace: bool = False):
+    """One free-camera run of `scheme` from `start` (4x4 world <- camera) to the goal (the identity).
+
+    Returns (Outcome, Trace or None). The rules of ibvs.sim.run, in its order per frame: diverged when
+    the distance to the target's centre exceeds MAX_DISTANCE_RATIO times its start value; collision
+    or target_backside (the camera within STANDOFF of the target or behind its plane); left_image
+    when a point is beyond the lens's circle (HALF_FOV); for the perspective schemes left_perspective
+    when a point leaves their domain (perspective_sees; cannot_see at frame 0: not run); converged when the error norm
+    is below tolerance; singular, diverged (error norm beyond MAX_ERROR_RATIO times its start) or
+    timeout. camera_retreat: the largest increase of the camera's distance to the target's centre over
+    its start value (the simulator's retreat is along the optical axis, which is meaningless when the
+    target starts beside or behind the camera: that one is axial_retreat)."""
+    start = np.asarray(start, dtype=float)
+    if start.shape != (4, 4) or not np.isfinite(start).all():
+        raise ValueError(f"start must be a finite 4x4 pose (world <- camera), got shape {start.shape}")
+    R = start[:3, :3]
+    if (np.abs(R).max() > 1.0 + 1e-6 or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0
+            or np.abs(start[3] - (0, 0, 0, 1)).max() > 0 or np.abs(start[:3, 3]).max() > 1e3):
+        raise ValueError("start must be a rigid transform (rotation, translation within 1 km, last row 0 0 0 1)")
+    if not (isinstance(duration, (int, float)) and 0 < duration <= 3600):
+        raise ValueError(f"duration must be in (0, 3600] seconds, got {duration!r}")
+    cam = cam or camera()
+    points = target_points()
+    centre = points.mean(axis=0)
+    goal = np.eye(4)
+    servo = make(scheme)
+    spherical = scheme in SPHERICAL
+    _, want = _measure(scheme, cam, in_camera(goal, points))
+    frames = int(round(duration * cam.fps))
+    dt = 1.0 / cam.fps
+    standoff = STANDOFF * in_camera(goal, centre[None])[0, 2]
+    T = np.array(start, dtype=float)
+    both = np.vstack([points, centre])  # the points, then the centre
+    cos_fov = math.cos(HALF_FOV)
+    none = np.zeros((0, 2))
+    poses, twists, pixel_log, norms = [], [], [], []
+    d0 = a0 = e0 = 0.0
+    retreat = axial = path = 0.0
+    outcome, k = "timeout", 0
+    for k in range(frames):
+        Q = (both - T[:3, 3]) @ T[:3, :3]  # camera frame
+        P = Q[:4]
+        d = math.sqrt(Q[4] @ Q[4])
+        if k == 0:
+            d0, a0 = d, Q[4, 2]
+        retreat, axial = max(retreat, d - d0), max(axial, Q[4, 2] - a0)
+        if trace:
+            poses.append(T.copy())
+        if not (d <= MAX_DISTANCE_RATIO * d0):  # also NaN
+            outcome = "diverged"
+            break
+        if T[2, 3] >= centre[2]:
+            outcome = "target_backside"
+            break
+        if d < standoff:
+            outcome = "collision"
+            break
+        if (P[:, 2] <= cos_fov * np.sqrt((P * P).sum(axis=1))).any():  # at or beyond HALF_FOV
+            outcome = "left_image"
+            break
+        if not spherical and not perspective_sees(P):
+            outcome = "cannot_see" if k == 0 else "left_perspective"
+            break
+        pixels, got = _measure(scheme, cam, P)
+        if spherical:
+            r = servo.update(none, none[:, 0], none, measurements=got, measurements_desired=want)
+        else:
+            r = servo.update(got[0], got[1], want[0], want[1])
+        v, e, status = r.velocity, r.error_norm, r.status
+        twists.append(v)
+        if trace:
+            pixel_log.append(pixels)
+            norms.append(e)
+        if k == 0:
+            e0 = e
+        if status == ibvs.Status.invalid_input or not (math.isfinite(e) and np.isfinite(v).all()):
+            outcome = "diverged"
+            break
+        if e < tolerance:
+            outcome = "converged"
+            break
+        if status == ibvs.Status.singular:
+            outcome = "singular"
+            break
+        if e > MAX_ERROR_RATIO * e0:
+            outcome = "diverged"
+            break
+        if k == frames - 1:
+            break
+        T_next = T @ ibvs.se3_exp(v * dt)
+        step = T_next[:3, 3] - T[:3, 3]
+        path += math.sqrt(step @ step)
+        T = T_next
+    tw = np.asarray(twists).reshape(-1, 6)
+    cos = (np.trace(T[:3, :3]) - 1.0) / 2.0
+    out = Outcome(outcome, k + 1, retreat, axial, path,
+                  float(np.max(np.linalg.norm(tw[:, :3], axis=1))) if len(tw) else 0.0,
+                  float(np.max(np.linalg.norm(tw[:, 3:], axis=1))) if len(tw) else 0.0,
+                  float(np.linalg.norm(T[:3, 3])),
+                  math.acos(min(1.0, max(-1.0, cos))) if np.isfinite(cos) else math.nan)
+    if not trace:
+        return out, None
+    return out, Trace(np.asarray(poses), tw, np.asarray(pixel_log).reshape(-1, 4, 2), np.asarray(norms))
+
+
+@dataclass(frozen=True)
+class Row:
+    """One run: the study, the start, the scheme and what it did."""
+
+    study: str
+    start: str
+    scheme: str
+    centre_angle_deg: float  # the target's centre off the axis at the start
+    max_angle_deg: float  # its farthest point off the axis at the start
+    cannot_see: bool  # a point outside the perspective domain at the start (perspective_sees)
+    beyond_pinhole: bool  # a point beyond 45 degrees at the start: a 90-degree perspective camera would not see it
+    outcome: str
+    converged: bool
+    reached: bool
+    in_view: bool
+    camera_retreat: float
+    axial_retreat: float
+    path_length: float
+    peak_linear_speed: float
+    peak_angular_speed: float
+    final_translation_error: float
+    final_rotation_error: float
+
+
+def summarise(study: str, start: str, scheme: str, T0: np.ndarray, o: Outcome) -> Row:
+    """The Row of one run from its start pose and Outcome."""
+    P = in_camera(T0, target_points())
+    a = off_axis(P)
+    reached = bool(o.final_translation_error < REACHED[0] and o.final_rotation_error < REACHED[1])
+    return Row(study, start, scheme, math.degrees(off_axis(P.mean(axis=0)[None])[0]), math.degrees(a.max()),
+               cannot_see(T0), bool(a.max() > PINHOLE_HALF_FOV), o.outcome, o.outcome == "converged", reached,
+               o.outcome not in OUT_OF_VIEW + ("cannot_see",), o.camera_retreat, o.axial_retreat, o.path_length,
+               o.peak_linear_speed, o.peak_angular_speed, o.final_translation_error, o.final_rotation_error)
+
+
+def sample(seed: int, index: int) -> dict:
+    """The parameters of random start `index` (a function of (seed, index) only)."""
+    rng = np.random.default_rng([int(seed), int(index)])
+    return dict(DEFAULTS, **{k: float(lo + rng.random() * (hi - lo)) for k, (lo, hi) in RANGES.items()})
+
+
+def start_pose(p: dict) -> np.ndarray:
+    """The start (4x4 world <- camera; the goal is the identity) of parameters p: the camera turned by rz_deg
+    about its optical axis, then tilted by tilt_deg about the axis of the image plane at tilt_dir_deg
+    (one rotation: the target ends about tilt_deg off the axis), then moved by (tx, ty, tz)."""
+    d, tilt = math.radians(p["tilt_dir_deg"]), math.radians(p["tilt_deg"])
+    T = ibvs.se3_exp([0.0, 0.0, 0.0, tilt * math.cos(d), tilt * math.sin(d), 0.0]) @ \
+        ibvs.se3_exp([0.0, 0.0, 0.0, 0.0, 0.0, math.radians(p["rz_deg"])])
+    T[:3, 3] = (p["tx"], p["ty"], p["tz"])
+    return T
+
+
+def starts(rotations: int = 19, general: int = 200, seed: int = 0) -> list[tuple[str, str, np.ndarray]]:
+    """(study, label, start pose) of every run (per scheme); random starts with a point beyond the lens's
+    circle are skipped (no camera sees them)."""
+    out = [("paper", c.name, np.asarray(c.start)) for c in
+           (sim.cases.x_translation(), sim.cases.z_rotation(), sim.cases.general_motion())]
+    for deg in np.linspace(0.0, 180.0, rotations):
+        out.append(("rotation", f"rz {deg:g} deg", offset(dict(DEFAULTS, rz_deg=float(deg)))))
+    k = n = 0
+    while n < general:
+        T = start_pose(sample(seed, k))
+        if np.all(off_axis(in_camera(T, target_points())) < HALF_FOV):
+            out.append(("general", f"#{k}", T))
+            n += 1
+        k += 1
+    return out
+
+
+#: The start whose runs the figures trace: the paper's half-turn, and the first random start whose target's
+#: centre is at least WIDE_TRACE degrees off the axis.
+TRACED = "z_rotation"
+WIDE_TRACE = 95.0
+
+
+def _centre_angle(T0: np.ndarray) -> float:
+    return math.degrees(off_axis(in_camera(T0, target_points()).mean(axis=0)[None])[0])
+
+
+def study(rotations: int = 19, general: int = 200, seed: int = 0, schemes_: Sequence[str] = SCHEMES,
+          keep: Optional[dict] = None) -> list[Row]:
+    """Every run of the study; keep: a dict filled with {(start label, scheme): Trace} of the traced runs
+    (TRACED and the first random start WIDE_TRACE degrees off the axis)."""
+    cam = camera()
+    every = starts(rotations, general, seed)
+    wide_label = next((lab for st, lab, T0 in every if st == "general" and _centre_angle(T0) >= WIDE_TRACE), None)
+    rows = []
+    for st, label, T0 in every:
+        for scheme in schemes_:
+            o, tr = run(scheme, T0, cam, trace=keep is not None and label in (TRACED, wide_label))
+            rows.append(summarise(st, label, scheme, T0, o))
+            if tr is not None:
+                keep[(label, scheme)] = tr
+    return rows
+
+
+# ------------------------------------------------------------------------------------------- the page
+
+
+def _median(x) -> float:
+    x = [v for v in x if math.isfinite(v)]
+    return float(np.median(x)) if x else math.nan
+
+
+def _share(k: int, n: int) -> str:
+    return f"{k}/{n} ({100.0 * k / n:.0f} %)" if n else "—"
+
+
+def table(rows: Sequence[Row], study_names=("paper", "rotation", "general")) -> str:
+    """Per scheme over the given studies: converged, reached, cannot see, stayed in view, retreat, path,
+    peak speeds (medians and maxima over the runs started)."""
+    head = ("| scheme | converged | reached goal | cannot see the start | converged, of the starts it sees | "
+            "stayed in view (of runs started) | retreat median / max (m) | path median (m) | "
+            "peak v median / max (m/s) | peak ω median / max (rad/s) |")
+    lines = [head, "|" + "---|" * 10]
+    for scheme in dict.fromkeys(r.scheme for r in rows):
+        mine = [r for r in rows if r.scheme == scheme and r.study in study_names]
+        ran = [r for r in mine if r.outcome != "cannot_see"]
+        if not ran:
+            continue
+        conv = sum(r.converged for r in mine)
+        v = [r.peak_linear_speed for r in ran]
+        w = [r.peak_angular_speed for r in ran]
+        cells = [
+            f"{NAMES[scheme]} (`{scheme}`)",
+            _share(conv, len(mine)),
+            _share(sum(r.reached for r in mine), len(mine)),
+            _share(len(mine) - len(ran), len(mine)),
+            _share(conv, len(ran)),
+            _share(sum(r.in_view for r in ran), len(ran)),
+            f"{_median([r.camera_retreat for r in ran]):.3f} / {max(r.camera_retreat for r in ran):.3f}",
+            f"{_median([r.path_length for r in ran]):.3f}",
+            f"{_median(v):.2f} / {max(v):.3g}",
+            f"{_median(w):.2f} / {max(w):.3g}",
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _cell(r: Row) -> str:
+    if r.reached:
+        return f"{r.camera_retreat:.2f} m"
+    return r.outcome.replace("_", " ") if r.outcome != "converged" else "converged, not reached"
+
+
+def case_table(rows: Sequence[Row], study_name: str) -> str:
+    """Per scheme and start of one study: the retreat (m) when it reached the goal, else the outcome."""
+    mine = [r for r in rows if r.study == study_name]
+    labels = list(dict.fromkeys(r.start for r in mine))
+    short = [x.replace("rz ", "").replace(" deg", "°").replace("_", " ") for x in labels]
+    lines = ["| scheme | " + " | ".join(short) + " |", "|" + "---|" * (1 + len(labels))]
+    for scheme in dict.fromkeys(r.scheme for r in mine):
+        by = {r.start: r for r in mine if r.scheme == scheme}
+        lines.append(f"| `{scheme}` | " + " | ".join(_cell(by[x]) for x in labels) + " |")
+    return "\n".join(lines)
+
+
+#: Bins of the target centre's start angle off the axis (degrees) for the general starts.
+ANGLE_BINS = (0.0, 30.0, 60.0, 80.0, 90.0, 120.0)
+
+
+def angle_table(rows: Sequence[Row]) -> str:
+    """Converged share per scheme and bin of the target centre's start angle (general starts)."""
+    gen = [r for r in rows if r.study == "general"]
+    bins = list(zip(ANGLE_BINS[:-1], ANGLE_BINS[1:]))
+    counts = []
+    for lo, hi in bins:
+        counts.append(len({r.start for r in gen if lo <= r.centre_angle_deg < hi}))
+    head = "| scheme | " + " | ".join(f"{lo:g}–{hi:g}° ({n} starts)" for (lo, hi), n in zip(bins, counts)) + " |"
+    lines = [head, "|" + "---|" * (1 + len(bins))]
+    for scheme in dict.fromkeys(r.scheme for r in gen):
+        cells = []
+        for lo, hi in bins:
+            b = [r for r in gen if r.scheme == scheme and lo <= r.centre_angle_deg < hi]
+            cells.append(f"{100.0 * sum(r.converged for r in b) / len(b):.0f} %" if b else "—")
+        lines.append(f"| `{scheme}` | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
+    """Write the figures into out; returns their file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = []
+    style = {s: ("--" if s in PERSPECTIVE else "-") for s in SCHEMES}
+    rot = [r for r in rows if r.study == "rotation"]
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for scheme in dict.fromkeys(r.scheme for r in rot):
+        mine = [r for r in rot if r.scheme == scheme]
+        deg = [float(r.start.split()[1]) for r in mine]
+        ax[0].plot(deg, [r.camera_retreat if r.reached else np.nan for r in mine], "o" + style[scheme], label=scheme,
+                   ms=3)
+        ax[1].plot(deg, [r.peak_angular_speed if r.reached else np.nan for r in mine], "o" + style[scheme],
+                   label=scheme, ms=3)
+    ax[0].set(xlabel="rotation about the optical axis (deg)", ylabel="camera retreat (m)",
+              title="retreat (gaps: goal not reached)")
+    ax[1].set(xlabel="rotation about the optical axis (deg)", ylabel="peak |ω| (rad/s)", title="peak angular speed")
+    ax[1].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    names.append("wide_rotation.png")
+    fig.savefig(out / names[-1], dpi=90)
+    plt.close(fig)
+
+    gen = [r for r in rows if r.study == "general"]
+    if gen:
+        edges = np.arange(0.0, 121.0, 10.0)
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for scheme in dict.fromkeys(r.scheme for r in gen):
+            share = []
+            for lo, hi in zip(edges[:-1], edges[1:]):
+                b = [r for r in gen if r.scheme == scheme and lo <= r.centre_angle_deg < hi]
+                share.append(100.0 * sum(r.converged for r in b) / len(b) if b else np.nan)
+            ax.plot((edges[:-1] + edges[1:]) / 2, share, "o" + style[scheme], label=scheme, ms=4)
+        ax.axvspan(90.0, 120.0, color="grey", alpha=0.15, lw=0)
+        ax.text(91.0, 50.0, "behind the\nimage plane", fontsize=7)
+        ax.set(xlabel="target centre off the optical axis at the start (deg, bins of 10)",
+               ylabel="converged (%)", title="random starts: converged share by start angle", xlim=(0, 120),
+               ylim=(-3, 103))
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        names.append("wide_angle.png")
+        fig.savefig(out / names[-1], dpi=90)
+        plt.close(fig)
+
+    half = [(s, tr) for (lab, s), tr in keep.items() if lab == TRACED]
+    wide_runs = [(lab, s, tr) for (lab, s), tr in keep.items() if lab != TRACED and s in SPHERICAL]
+    if half:
+        f = (SENSOR / 2) / HALF_FOV
+        fig, ax = plt.subplots(1, 2, figsize=(11, 4.6))
+        for scheme, tr in half:
+            t = np.arange(len(tr.pose)) / FPS
+            d = np.linalg.norm(tr.pose[:, :3, 3] - target_points().mean(axis=0), axis=1)
+            ax[0].plot(t, d, style[scheme], label=scheme)
+        ax[0].set(xlabel="time (s)", ylabel="camera to target centre (m)", ylim=(0, 8),
+                  title="the half-turn about the optical axis (π exactly)")
+        ax[0].legend(fontsize=7)
+        if wide_runs:
+            for (label, scheme, tr), colour in zip(wide_runs, ("C0", "C1", "C2")):
+                outcome = next(x.outcome for x in rows if x.start == label and x.scheme == scheme)
+                for i in range(tr.pixels.shape[1]):
+                    ax[1].plot(tr.pixels[:, i, 0], tr.pixels[:, i, 1], color=colour, lw=0.8,
+                               label=f"{scheme}: {outcome.replace('_', ' ')}" if i == 0 else None)
+                ax[1].plot(tr.pixels[0, :, 0], tr.pixels[0, :, 1], "o", color=colour, ms=3)
+            goal = camera().from_bearing(in_camera(np.eye(4), target_points()))
+            ax[1].plot(goal[:, 0], goal[:, 1], "k+")
+            for deg, ls in ((110.0, "-"), (90.0, ":")):
+                ax[1].add_patch(plt.Circle((SENSOR / 2, SENSOR / 2), f * math.radians(deg), fill=False, ls=ls,
+                                           color="grey"))
+            r = [x for x in rows if x.start == wide_runs[0][0]][0]
+            ax[1].set(xlim=(0, SENSOR), ylim=(SENSOR, 0), aspect="equal",
+                      title=f"random start {r.start}: the target {r.centre_angle_deg:.0f}° off the axis "
+                            "(o: start, +: goal)")
+            ax[1].title.set_fontsize(9)
+            ax[1].legend(fontsize=7, loc="lower left")
+        else:
+            ax[1].axis("off")
+        fig.suptitle("left: distance to the target (cartesian and spherical run off the top); right: the fisheye "
+                     "image (pixels; circles: 90° dotted, the lens's 110° solid)", fontsize=9)
+        fig.tight_layout()
+        names.append("wide_traces.png")
+        fig.savefig(out / names[-1], dpi=90)
+        plt.close(fig)
+    return names
+
+
+def starts_table(rows: Sequence[Row]) -> str:
+    """What the perspective schemes and a pinhole camera could see of each study's starts."""
+    lines = ["| starts | number | target centre off the axis (deg) | a point beyond 45° (a 90° pinhole cannot see "
+             "them) | beyond the perspective domain (cannot see) | a point at or beyond 90° |", "|" + "---|" * 6]
+    for st in dict.fromkeys(r.study for r in rows):
+        one = list({r.start: r for r in rows if r.study == st}.values())
+        a = [r.centre_angle_deg for r in one]
+        lines.append(f"| {st} | {len(one)} | {min(a):.0f}–{max(a):.0f} | {sum(r.beyond_pinhole for r in one)} | "
+                     f"{sum(r.cannot_see for r in one)} | {sum(r.max_angle_deg >= 90.0 for r in one)} |")
+    return "\n".join(lines)
+
+
+def _find(rows, study_name, start, scheme) -> Optional[Row]:
+    return next((r for r in rows if r.study == study_name and r.start == start and r.scheme == scheme), None)
+
+
+def summary(rows: Sequence[Row]) -> list[str]:
+    """The page's "In short" bullets, their numbers from the rows."""
+    gen = [r for r in rows if r.study == "general"]
+    n = len({r.start for r in gen})
+    blind = {r.start for r in gen if r.cannot_see}
+
+    def conv(scheme, starts=None):
+        return sum(r.converged for r in gen if r.scheme == scheme and (starts is None or r.start in starts))
+
+    out = []
+    if n and any(r.scheme == "spherical" for r in gen):
+        out.append(f"- Spherical point features (`spherical`) converged from {conv('spherical')} of {n} random starts "
+                   f"up to 100° off the axis, {conv('spherical', blind)} of them among the {len(blind)} that no "
+                   "perspective feature can see; the perspective Cartesian features from "
+                   f"{conv('cartesian')}.")
+    h = _find(rows, "paper", "z_rotation", "spherical_polar")
+    if h is not None and n and all(any(r.scheme == s for r in gen) for s in ("polar", "polar_per_point")):
+        below = [r for r in rows if r.study == "rotation" and r.scheme == "spherical_polar"
+                 and float(r.start.split()[1]) < 180.0]
+        still = sum(r.reached and r.camera_retreat < 1e-6 for r in below)
+        out.append(f"- Spherical-polar features turn the camera about its axis without retreat (under 1e-6 m) from "
+                   f"{still} of the sweep's {len(below)} angles below 180°, but not at the exact half-turn, where "
+                   f"they end as *{h.outcome.replace('_', ' ')}*; from the random starts they converged "
+                   f"{conv('spherical_polar')} times, about as often as IBVS-P with its θ errors wrapped "
+                   f"per point ({conv('polar_per_point')}), not as IBVS-P ({conv('polar')}): their azimuth errors "
+                   "lack the consistent wrap of paper eq. (13).")
+    r = _find(rows, "rotation", "rz 150 deg", "spherical")
+    c = _find(rows, "rotation", "rz 150 deg", "cartesian")
+    if r is not None and c is not None:
+        out.append(f"- The sphere does not cure the retreat: turned by 150° about the axis, the spherical point "
+                   f"features retreat {r.camera_retreat:.2f} m, the Cartesian ones {c.camera_retreat:.2f} m.")
+    return out
+
+
+def findings(rows: Sequence[Row]) -> list[str]:
+    """The bullets of "What shows", their numbers from the rows."""
+    gen = [r for r in rows if r.study == "general"]
+    out = []
+    if gen:
+        blind = {r.start for r in gen if r.cannot_see}
+        n = len({r.start for r in gen})
+        sph = {s: sum(r.converged for r in gen if r.scheme == s and r.start in blind) for s in SPHERICAL}
+        out.append(f"- **What a perspective feature cannot see.** {len(blind)} of the {n} random starts have a point "
+                   "outside the perspective domain (behind the image plane, or beyond |x|, |y| = 10 where ibvs "
+                   "refuses normalised coordinates, 84–86° off the axis): the perspective schemes cannot start "
+                   "there, whatever the lens. From those starts the spherical schemes converged "
+                   + ", ".join(f"`{s}` {sph[s]}" for s in SPHERICAL) + f" times of {len(blind)} "
+                   "(tests/python/test_wide.py: the spherical point features converge from a start 100° off the "
+                   "axis; the count of such starts equals one made independently from the geometry).")
+        seen = sorted({r.start for r in gen} - blind)
+        on_seen = {s: sum(r.converged for r in gen if r.scheme == s and r.start in seen) for s in SCHEMES}
+        outs = {s: {r.start: r.outcome for r in gen if r.scheme == s} for s in SCHEMES}
+        out.append(f"- **Random starts the perspective schemes see** ({len(seen)}), converged: "
+                   + ", ".join(f"`{s}` {on_seen[s]}" for s in SCHEMES if any(r.scheme == s for r in gen))
+                   + ". The spherical Cartesian features do about as the perspective Cartesian ones "
+                   "(both chase each point straight to its goal) and, unlike them, keep going beyond 84°.")
+        if all(outs[s] for s in ("polar", "polar_per_point", "spherical_polar")):
+            agree = sum(outs["polar_per_point"][x] == outs["spherical_polar"][x] for x in seen)
+            fails = [r for r in gen if r.scheme in ("spherical_polar", "spherical_stacked") and not r.converged]
+            back = sum(r.outcome == "target_backside" for r in fails)
+            near = [x for x in seen if _find(rows, "general", x, "polar").centre_angle_deg < 30.0]
+            near_conv = {s: sum(outs[s][x] == "converged" for x in near) for s in ("polar", "polar_per_point",
+                                                                                   "spherical_polar")}
+            out.append(f"- **Why the spherical-polar features fail so often**: not the sphere, the wrap. IBVS-P "
+                       f"with its θ errors wrapped per point (`polar_per_point`) — as a `SphericalPolarFeature` "
+                       f"wraps its azimuth error — converges from {on_seen['polar_per_point']} of those "
+                       f"{len(seen)} starts, `spherical_polar` from {on_seen['spherical_polar']}, and the two end "
+                       f"the same way from {agree} of the {len(seen)}; `polar`, whose Servo chooses one branch for "
+                       f"all points (the consistent wrap, paper eq. 13), from {on_seen['polar']}. Near the axis "
+                       f"(the target's centre within 30°, {len(near)} starts, turned by up to 180°) the difference "
+                       f"is the whole story: `polar` {near_conv['polar']}, `polar_per_point` "
+                       f"{near_conv['polar_per_point']}, `spherical_polar` {near_conv['spherical_polar']}: turned "
+                       "by most of a half-turn, some points' errors wrap to the other side of ±π, the points pull "
+                       "different ways and the law throws the camera sideways (tested at two such starts). The "
+                       f"spherical stacked features carry the same azimuth rows: {on_seen['spherical_stacked']} "
+                       f"against the stacked perspective features' {on_seen['stacked']}. {back} of the "
+                       f"{len(fails)} failures of `spherical_polar` and `spherical_stacked` end behind the target's "
+                       f"plane, at a median peak speed of {_median([r.peak_linear_speed for r in fails]):.0f} m/s. "
+                       "Farther off the axis all polar kinds also "
+                       "suffer the weakness the paper finds in IBVS-P for translations: the azimuths of the four "
+                       "points lie close together while the goal's spread round the circle.")
+    h = {s: _find(rows, "paper", "z_rotation", s) for s in SCHEMES}
+    sp, pl = h.get("spherical_polar"), h.get("polar")
+    if sp is not None and pl is not None:
+        out.append(f"- **The half-turn with spherical-polar features** (the paper's z-rotation of exactly π): "
+                   f"`polar` turns the camera about its axis without retreat ({pl.camera_retreat:.1e} m, path "
+                   f"{pl.path_length:.1e} m); `spherical_polar` ends as *{sp.outcome.replace('_', ' ')}* after "
+                   f"{sp.path_length:.1f} m at up to {sp.peak_linear_speed:.0f} m/s. At exactly π the four azimuth "
+                   "errors are ±π, and rounding puts one of them on the other branch (−π): the feature wraps each "
+                   "point's error on its own (wrap_angle), where the Servo's polar layout chooses one branch for "
+                   "all points (the consistent wrap, paper eq. 13). `polar_per_point` (IBVS-P with "
+                   "`angle_wrap=\"per_point\"`) does the same (tested). A hair away from π, at 179.9° and 180.1°, "
+                   "and at every angle of the "
+                   "sweep below 180°, `spherical_polar` turns the camera about its axis with no retreat and no "
+                   "sideways motion (under 1e-6 m, tested), like `polar`: the polar idea lifts to the sphere, the "
+                   "consistent wrap does not yet reach its azimuth blocks.")
+    rot = {s: _find(rows, "rotation", "rz 150 deg", s) for s in SCHEMES}
+    if all(rot.get(s) for s in ("cartesian", "spherical", "stacked", "spherical_stacked")):
+        gone = sum(not r.in_view for r in rows if r.scheme in SPHERICAL)
+        out.append(f"- **About the optical axis** (150°): the spherical Cartesian features retreat as the Cartesian "
+                   f"ones do ({rot['spherical'].camera_retreat:.2f} m against {rot['cartesian'].camera_retreat:.2f} "
+                   "m: near the axis a bearing is the image point with a third coordinate, and each point is chased "
+                   "straight to its goal), the stacked spherical features as the stacked ones "
+                   f"({rot['spherical_stacked'].camera_retreat:.2f} m against {rot['stacked'].camera_retreat:.2f} m; "
+                   "tested). The sphere does not cure the retreat; only the polar coordinates do. "
+                   f"{gone} of the {sum(r.scheme in SPHERICAL for r in rows)} spherical runs left the lens's view.")
+    peaks = {s: _median([r.peak_linear_speed for r in rows if r.scheme == s and r.outcome != "cannot_see"])
+             for s in SCHEMES}
+    out.append("- **Peak twist**: no speed limit is applied (gain 1, damping 0, as in the comparison). Median peak "
+               "linear speeds: " + ", ".join(f"`{s}` {v:.1f} m/s" for s, v in peaks.items() if math.isfinite(v))
+               + ". The polar kinds' peaks come from the wide starts, where their laws throw the camera sideways; "
+               "a robot would clip them (ibvs.Servo's max_linear_speed / max_angular_speed), which changes their "
+               "paths.")
+    out.append("- Not in this study: image noise, depth estimation (the depths and distances are exact), speed "
+               "limits, a lens with distortion (the model is exact here), Mei's omnidirectional model, and images "
+               "rendered through the lens (the renderer does not draw through a fisheye yet).")
+    return out
+
+
+def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, general: int, seed: int,
+         seconds: float) -> str:
+    """docs/wide-study.md."""
+    c = camera()
+    parts = [
+        "# Wide field of view: perspective against spherical features on a 220° fisheye",
+        "",
+        "Regenerated by `ibvs wide --out DIR --docs` (or `python -m ibvs.study.wide`), which writes this page and its "
+        f"figures: {len(rows)} runs ({len(set(r.scheme for r in rows))} schemes; the paper's three free-camera cases, "
+        f"{rotations} angles about the optical axis from 0 to 180°, {general} random starts up to 100° off the "
+        f"axis (seed {seed})), {seconds:.0f} s on one core. Features on the sphere and the lens models: "
+        "[wide.md](wide.md); the laws on a perspective camera: [compare.md](compare.md).",
+        "",
+        f"**Set-up.** A free-flying camera with an equidistant fisheye, r = f θ, no distortion, f = {c.px:.1f} px, "
+        f"whose image circle, {math.degrees(HALF_FOV):.0f}° off the axis (a 220° lens), is inscribed in a "
+        f"{SENSOR} × {SENSOR} sensor; the paper's target (the square (±0.25, ±0.25) m, 3 m in front of the goal "
+        "camera); gain 1, damping 0, exact depths, 60 frames/s, 30 s. Every scheme measures the target's pixels "
+        "through the lens model: the perspective schemes (`cartesian`, `polar`, `stacked`, the Layouts of "
+        "ibvs.study.schemes, and `polar_per_point`, IBVS-P with `angle_wrap=\"per_point\"`: each point's θ error "
+        "wrapped on its own, as a spherical-polar block wraps its azimuth) normalise them with "
+        "`CameraModel.normalize`, (x, y) = (X/Z, Y/Z); the spherical ones "
+        "lift them to bearings with `ibvs.spherical_measurements` and servo four `SphericalPointFeature` blocks "
+        "(`spherical`, 12 rows), four `SphericalPolarFeature` blocks (`spherical_polar`, 8 rows) or both per point "
+        "(`spherical_stacked`, 20 rows). Random starts: rotation about the axis 0–180°, tilt 0–100° in a uniform "
+        "direction, translation ±0.2, ±0.2, ±0.5 m (starts with a point beyond the lens's circle are drawn again). "
+        "The loop is the simulator's for a free camera (the twist held for a frame, its stopping rules: diverged, "
+        "collision, target backside, out of view, converged, singular, timeout), in Python because ibvs.sim measures "
+        "perspective points only; tests/python/test_wide.py checks that it reproduces `ibvs.sim.run` frame for "
+        "frame on the perspective schemes.",
+        "",
+        "**Columns.** *converged*: the task's error norm under "
+        f"{TOLERANCE:g} within 30 s (each task in its own units); *reached goal*: the camera within 1 mm and 1 mrad "
+        "of the goal; *cannot see the start*: a start with a point outside the perspective domain (behind the "
+        "image plane, or |x| or |y| above 10, ibvs's limit on normalised coordinates, 84–86° off the axis), not run "
+        "for the perspective schemes, run for the spherical ones; *stayed in view*: no point left the lens's circle, "
+        "nor, for the perspective schemes, their domain; *retreat*: the largest increase of the camera's distance "
+        "to the target's centre (the simulator measures it along the optical axis, which means nothing when the "
+        "target starts beside the camera); the camera's path length; the peak speeds of the commanded twist; "
+        "medians and "
+        "maxima over the runs started.",
+        "",
+        "**In short.**",
+        "",
+    ] + summary(rows) + [
+        "",
+        "## All starts",
+        "",
+        table(rows),
+        "",
+        "Random starts only:",
+        "",
+        table(rows, ("general",)),
+        "",
+        "What could be seen of the starts:",
+        "",
+        starts_table(rows),
+        "",
+        "## The paper's cases and the rotations about the optical axis",
+        "",
+        "The camera retreat of each scheme when it reached the goal, otherwise what ended the run:",
+        "",
+        case_table(rows, "paper"),
+        "",
+        case_table(rows, "rotation"),
+        "",
+        "## By the target's start angle",
+        "",
+        "Converged share of the random starts, by the angle of the target's centre off the optical axis:",
+        "",
+        angle_table(rows),
+        "",
+    ]
+    for name in figure_names:
+        parts += [f"![{name}](figures/{name})", ""]
+    parts += ["## What shows, and what is tested", ""] + findings(rows) + [""]
+    return wrap("\n".join(parts))
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """`ibvs wide`: run the study, write wide.csv, wide-study.md and the figures (and docs/ with --docs)."""
+    p = argparse.ArgumentParser(prog="ibvs wide", description="A 220-degree fisheye servoed on perspective features "
+                                "(Cartesian, polar, stacked) and on features on the sphere (spherical, "
+                                "spherical-polar, stacked), on the paper's cases, rotations and random wide starts.")
+    p.add_argument("--out", default="ibvs-wide", help="output directory: wide.csv, wide-study.md, figures")
+    p.add_argument("--rotations", type=int, default=19, help="angles about the optical axis from 0 to 180 deg (19)")
+    p.add_argument("--general", type=int, default=200, help="random starts, tilted up to 100 deg (200)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--docs", action="store_true",
+                   help="also write docs/wide-study.md and docs/figures/wide_*.png of this repository")
+    args = p.parse_args(argv)
+    if not 2 <= args.rotations <= 181 or not 0 <= args.general <= 100000 or args.seed < 0:
+        p.error("--rotations must be in [2, 181], --general in [0, 100000] and --seed >= 0")
+    root = Path(__file__).resolve().parents[3]
+    if args.docs and not (root / "mkdocs.yml").is_file():
+        p.error(f"--docs: {root} is not the ibvs repository (run from a source checkout)")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    keep: dict = {}
+    rows = study(args.rotations, args.general, args.seed, keep=keep)
+    seconds = time.perf_counter() - t0
+    import csv
+
+    with open(out / "wide.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(asdict(rows[0])))
+        w.writeheader()
+        w.writerows(asdict(r) for r in rows)
+    targets = [out] + ([root / "docs"] if args.docs else [])
+    for d in targets:
+        fig_dir = d / "figures"
+        fig_dir.mkdir(parents=True, exist_ok=True)
+        names = figures(rows, keep, fig_dir)
+        (d / "wide-study.md").write_text(page(rows, names, args.rotations, args.general, args.seed, seconds))
+    print(table(rows))
+    print(f"{len(rows)} runs in {seconds:.0f} s; written to {out}" + (" and docs/" if args.docs else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

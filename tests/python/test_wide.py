@@ -1,0 +1,175 @@
+"""The wide-field study (ibvs.study.wide): its loop against the simulator, what a perspective feature
+cannot see, the spherical features from there, the half-turn with spherical-polar features, and the
+page `ibvs wide` writes."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ibvs
+from ibvs import sim
+from ibvs.study import schemes, wide
+from ibvs.study.scenario import DEFAULTS, offset
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def start(**p) -> np.ndarray:
+    return offset(dict(DEFAULTS, **p))
+
+
+@pytest.mark.parametrize("scheme", ["cartesian", "polar", "stacked"])
+def test_the_loop_reproduces_the_simulator(scheme):
+    """On the perspective schemes the study's loop is ibvs.sim.run's free camera, frame for frame."""
+    cam = wide.camera()
+    T0 = start(rz_deg=60.0, tilt_deg=25.0, tilt_dir_deg=30.0, tx=0.1, ty=-0.05, tz=-0.3)
+    o, tr = wide.run(scheme, T0, cam, trace=True)
+    r = sim.run(schemes.make(scheme, wide.GAIN), cam, sim.Target.paper(), T0, np.eye(4), duration=wide.DURATION,
+                depth="exact", tolerance=wide.TOLERANCE)
+    assert o.outcome == r.status.outcome == "converged"
+    assert o.frames == r.metrics.frames_to_converge + 1 == len(r.history.twist)
+    np.testing.assert_allclose(tr.twist, r.history.twist, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(tr.pose, r.history.pose, rtol=0, atol=1e-9)
+    assert o.path_length == pytest.approx(r.metrics.path_length, rel=1e-9)
+    assert o.axial_retreat == pytest.approx(r.metrics.camera_retreat, abs=1e-9)
+    assert o.peak_linear_speed == pytest.approx(r.metrics.peak_commanded_linear_speed, rel=1e-7)
+    assert o.peak_angular_speed == pytest.approx(r.metrics.peak_commanded_angular_speed, rel=1e-7)
+    assert o.final_translation_error == pytest.approx(r.metrics.final_translation_error, abs=1e-9)
+
+
+def test_the_lens_sees_110_degrees_off_the_axis():
+    cam = wide.camera()
+    edge = cam.from_bearing([math.sin(wide.HALF_FOV), 0.0, math.cos(wide.HALF_FOV)])
+    assert edge[0] == pytest.approx(wide.SENSOR, abs=1e-9) and edge[1] == pytest.approx(wide.SENSOR / 2)
+
+
+def _outside_perspective(T_wc: np.ndarray) -> bool:
+    """Written apart from ibvs.study.wide: some corner of the square behind the image plane, or with
+    |X| or |Y| over ten times its depth."""
+    R, t = T_wc[:3, :3], T_wc[:3, 3]
+    for x in (-0.25, 0.25):
+        for y in (-0.25, 0.25):
+            X, Y, Z = R.T @ (np.array([x, y, 3.0]) - t)
+            if Z <= 0 or abs(X) > 10 * Z or abs(Y) > 10 * Z:
+                return True
+    return False
+
+
+def test_cannot_see_counts_the_starts_outside_the_perspective_domain():
+    rows = wide.study(rotations=2, general=30, seed=3, schemes_=("cartesian", "spherical"))
+    starts = {label: T for _, label, T in wide.starts(2, 30, 3)}
+    blind = {label for label, T in starts.items() if _outside_perspective(T)}
+    assert len(blind) >= 3  # the random starts reach behind the image plane
+    assert {r.start for r in rows if r.scheme == "cartesian" and r.outcome == "cannot_see"} == blind
+    assert {r.start for r in rows if r.cannot_see} == blind
+    assert not any(r.outcome == "cannot_see" for r in rows if r.scheme == "spherical")
+    # the spherical features converge from most of them
+    assert sum(r.converged for r in rows if r.scheme == "spherical" and r.start in blind) >= len(blind) // 2
+
+
+@pytest.mark.parametrize("scheme", ["spherical", "spherical_stacked"])
+def test_spherical_features_converge_where_a_perspective_camera_cannot_see(scheme):
+    T0 = wide.start_pose(dict(DEFAULTS, tilt_deg=100.0, tilt_dir_deg=40.0, rz_deg=30.0))
+    centre = wide.in_camera(T0, wide.target_points()).mean(axis=0)
+    assert math.degrees(math.acos(centre[2] / np.linalg.norm(centre))) > 95.0
+    assert wide.cannot_see(T0) and wide.run("cartesian", T0)[0].outcome == "cannot_see"
+    o, _ = wide.run(scheme, T0)
+    assert o.outcome == "converged"
+    assert o.final_translation_error < 1e-3 and o.final_rotation_error < 1e-3
+
+
+@pytest.mark.parametrize("deg", [90.0, 150.0, 179.9, 180.1])
+def test_spherical_polar_turns_about_the_axis_without_retreat(deg):
+    o, tr = wide.run("spherical_polar", start(rz_deg=deg), trace=True)
+    assert o.outcome == "converged" and o.final_rotation_error < 1e-3
+    assert o.camera_retreat < 1e-6 and np.abs(tr.pose[:, :3, 3]).max() < 1e-6
+
+
+def test_spherical_polar_half_turn_takes_one_azimuth_on_the_other_branch():
+    """At exactly pi the feature wraps each azimuth error alone: polar with per-point wrapping does the same."""
+    T0 = np.asarray(sim.cases.z_rotation().start)
+    servo = wide.make("spherical_polar")
+    cam = wide.camera()
+    _, m = wide._measure("spherical_polar", cam, wide.in_camera(T0, wide.target_points()))
+    _, g = wide._measure("spherical_polar", cam, wide.in_camera(np.eye(4), wide.target_points()))
+    none = np.zeros((0, 2))
+    e = servo.update(none, none[:, 0], none, measurements=m, measurements_desired=g).error[1::2]
+    np.testing.assert_allclose(np.abs(e), math.pi, rtol=0, atol=1e-12)
+    assert e.min() < 0 < e.max()  # not one branch
+    sp, _ = wide.run("spherical_polar", T0)
+    assert sp.outcome != "converged" and sp.path_length > 1.0
+    pp, _ = wide.run("polar_per_point", T0)
+    assert (pp.outcome, pp.frames) == (sp.outcome, sp.frames)  # the laws differ (r = tan(beta)): paths within 1 %
+    assert pp.path_length == pytest.approx(sp.path_length, rel=1e-2)
+    consistent, _ = wide.run("polar", T0)
+    assert consistent.outcome == "converged" and consistent.camera_retreat < 1e-6
+
+
+@pytest.mark.parametrize("rz, tilt, direction", [(178.0, 3.0, 30.0), (160.0, 10.0, 45.0)])
+def test_spherical_polar_fails_where_polar_needs_its_consistent_wrap(rz, tilt, direction):
+    """Near the axis, turned by most of a half-turn: polar converges, polar with per-point wraps and
+    spherical-polar (whose azimuth errors are wrapped per point) do not, and end alike."""
+    T0 = wide.start_pose(dict(DEFAULTS, rz_deg=rz, tilt_deg=tilt, tilt_dir_deg=direction))
+    o = {s: wide.run(s, T0)[0] for s in ("polar", "polar_per_point", "spherical_polar")}
+    assert o["polar"].outcome == "converged" and o["polar"].camera_retreat < 0.05
+    assert o["polar_per_point"].outcome == o["spherical_polar"].outcome != "converged"
+
+
+def test_spherical_cartesian_retreats_like_cartesian():
+    runs = {s: wide.run(s, start(rz_deg=150.0))[0] for s in ("cartesian", "spherical", "stacked", "spherical_stacked")}
+    assert runs["cartesian"].camera_retreat > 5.0
+    assert runs["spherical"].camera_retreat == pytest.approx(runs["cartesian"].camera_retreat, rel=0.02)
+    assert runs["spherical_stacked"].camera_retreat == pytest.approx(runs["stacked"].camera_retreat, rel=0.05)
+
+
+def test_bad_input_is_refused():
+    with pytest.raises(ValueError, match="scheme"):
+        wide.make("fisheye")
+    with pytest.raises(ValueError, match="start"):
+        wide.run("spherical", np.full((4, 4), np.nan))
+    with pytest.raises(ValueError, match="start"):
+        wide.run("spherical", np.eye(3))
+    with pytest.raises(ValueError, match="duration"):
+        wide.run("spherical", np.eye(4), duration=-1.0)
+
+
+# ------------------------------------------------------------------ the command and its page
+
+
+def _paragraphs(text: str) -> list[str]:
+    """The page's prose and headings (no tables, figures or bullets of findings), numbers masked, rewrapped."""
+    out = []
+    for block in text.split("\n\n"):
+        block = " ".join(block.split())
+        if not block or block.startswith(("|", "![", "- ")):
+            continue
+        out.append(re.sub(r"\d+(\.\d+)?(e-?\d+)?", "#", block))
+    return out
+
+
+def test_wide_command_writes_its_page_and_figures(tmp_path, capsys):
+    from ibvs.cli.main import main
+
+    assert main(["wide", "--out", str(tmp_path), "--rotations", "2", "--general", "2"]) == 0
+    page = (tmp_path / "wide-study.md").read_text()
+    for s in wide.SCHEMES:
+        assert f"`{s}`" in page
+    for name in ("wide_rotation.png", "wide_angle.png", "wide_traces.png"):
+        assert (tmp_path / "figures" / name).stat().st_size > 1000 and f"figures/{name}" in page
+    assert "runs in" in capsys.readouterr().out
+    # docs/wide-study.md is this command's page: the same prose and headings, figures that exist
+    docs = (ROOT / "docs" / "wide-study.md").read_text()
+    assert _paragraphs(docs) == _paragraphs(page)
+    for name in re.findall(r"\(figures/(wide_\w+\.png)\)", docs):
+        assert (ROOT / "docs" / "figures" / name).is_file()
+    assert all(f"`{s}`" in docs for s in wide.SCHEMES)
+
+
+def test_wide_command_refuses_bad_arguments(tmp_path):
+    with pytest.raises(SystemExit):
+        wide.main(["--out", str(tmp_path), "--rotations", "1"])
