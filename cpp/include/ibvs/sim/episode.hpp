@@ -160,7 +160,8 @@ enum class DepthMode : std::uint8_t {
 /// an omnidirectional camera). For it the episode judges a point in the image when
 /// CameraModel::from_bearing maps it inside the lens's image circle (max_angle) and onto the sensor,
 /// whatever the sign of its depth; behind_camera only when it is closer than min_depth to the
-/// camera centre; and the target's depth (retreat, max_depth_ratio) is its centroid's distance.
+/// camera centre; and max_depth_ratio bounds the target centroid's distance (the camera retreat
+/// stays the rise of its depth z).
 inline bool wide_lens(const CameraModel& camera) noexcept {
   return camera.distortion() == Distortion::equidistant || camera.distortion() == Distortion::omnidir;
 }

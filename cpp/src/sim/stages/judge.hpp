@@ -38,8 +38,9 @@ namespace ibvs::sim::stages {
 
 class Judge {
  public:
-  /// frames: the history's capacity (timeout at frame frames - 1); by_distance: the target's depth
-  /// is its centroid's distance from the camera centre, not its z (a wide lens, wide_lens()).
+  /// frames: the history's capacity (timeout at frame frames - 1); by_distance: max_depth_ratio
+  /// bounds the target centroid's distance from the camera centre, not its z (a wide lens,
+  /// wide_lens(), whose target may start beside or behind the camera). The retreat is along z.
   Judge(const Target& target, const EpisodeOptions& options, int frames, bool by_distance = false);
 
   /// The faces from the goal camera (world <- camera): the front, the standoff.
@@ -81,7 +82,7 @@ class Judge {
   Eigen::Vector3d front_ = Eigen::Vector3d::Zero();
   double extent_ = 0.0, standoff_ = 0.0;
   // references of the run: the target's depth at frame 0, the error norm at frame 0
-  double depth0_ = 0.0, error0_ = 0.0, retreat_ = 0.0;
+  double depth0_ = 0.0, range0_ = 0.0, error0_ = 0.0, retreat_ = 0.0;
   Eigen::Vector3d c_prev_ = Eigen::Vector3d::Zero();  // the camera centre at the last frame judged
 };
 
@@ -115,10 +116,13 @@ inline void Judge::aim(const Pose& goal) noexcept {
 inline bool Judge::camera(int k, const Pose& T_wc, const Eigen::Matrix3d& Rcw, const Eigen::Vector3d& tcw,
                           bool kinematics_ok, EpisodeStatus& st) noexcept {
   const Eigen::Vector3d centroid = Rcw * centroid_w_ + tcw;  // of the points, camera frame
-  const double target_depth = by_distance_ ? centroid.norm() : centroid(2);
-  if (k == 0) depth0_ = target_depth;
+  const double target_depth = centroid(2), range = by_distance_ ? centroid.norm() : target_depth;
+  if (k == 0) {
+    depth0_ = target_depth;
+    range0_ = range;
+  }
   retreat_ = std::max(retreat_, target_depth - depth0_);
-  if (!kinematics_ok || !T_wc.allFinite() || target_depth > options_.max_depth_ratio * std::abs(depth0_)) {
+  if (!kinematics_ok || !T_wc.allFinite() || range > options_.max_depth_ratio * std::abs(range0_)) {
     st = {Outcome::diverged, k, -1, -1};
     return true;
   }
