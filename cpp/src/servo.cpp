@@ -205,6 +205,19 @@ struct Work {
       }
     }
   }
+  // assemble_features() for InteractionMatrix::current with each block's check folded in
+  // (Feature::evaluate: the same rows, bit for bit, each measurement evaluated once where a kind
+  // can); false, with nothing more computed, when a measurement is refused.
+  bool evaluate_features(const Task& task, const double* m, const double* md, double* aligned) noexcept {
+    for (int k = 0; k < task.n_features(); ++k) {
+      const Feature& f = task.feature(k);
+      const int row = task.row(k), off = task.offset(k);
+      double* mc = aligned + off;
+      std::copy(m + off, m + off + f.size(), mc);
+      if (f.evaluate(mc, md + off, e.data() + row, J.middleRows(row, f.rows()))) return false;
+    }
+    return true;
+  }
   void weigh(const Task& task) noexcept {
     const std::vector<double>& pw = task.point_weights();
     for (std::size_t b = 0; b < pw.size(); ++b) {
@@ -530,12 +543,26 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
   const Eigen::Index m = task_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;
   Kernel& kernel = *kernel_;
+  const bool plain = task_.points_only();
+  // With the current interaction matrix the feature blocks are checked and evaluated in one
+  // pass (Feature::evaluate), first, so that a refused frame changes no state.
+  const bool fused = !plain && !uses_zd;
+  const Eigen::Index size = task_.measurement_size();
   // Exactly what validate() refuses (tests/cpp/test_fuzz.cpp checks that the two agree).
-  const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
-                  out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
-                  detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
-                  (!uses_zd || detail::valid_depths(depth_desired)) && valid_measurements(task_, measurements) &&
-                  valid_measurements(task_, measurements_desired);
+  const bool ok =
+      uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
+      out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
+      detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
+      (!uses_zd || detail::valid_depths(depth_desired)) &&
+      (fused ? measurements.size() == size && measurements_desired.size() == size
+             : valid_measurements(task_, measurements) && valid_measurements(task_, measurements_desired)) &&
+      (!fused || std::visit(
+                     [&](auto& w) noexcept {
+                       if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) return false;
+                       else return w.evaluate_features(task_, measurements.data(), measurements_desired.data(),
+                                                       kernel.aligned.data());
+                     },
+                     kernel.work));
   if (!ok) {
     smoother_.note(Twist::Zero());  // the refusal's zero twist: a later law starts from rest
     return detail::refuse(out);
@@ -556,10 +583,10 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
         out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
-        const bool plain = task_.points_only();
         if (!plain) {
-          w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
-                              kernel.aligned.data(), kernel.spare);
+          if (!fused)
+            w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
+                                kernel.aligned.data(), kernel.spare);
           w.weigh(task_);
         }
         out.lost_points = lost;
@@ -568,9 +595,15 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
           w.key ^= drop_lost(layout, *valid, w.J, w.e);
           enough = 2 * (n - lost) + (m - task_.point_rows()) >= task_.n_dof();
         }
-        out.error = w.e.head(m);
+        constexpr int rows = std::decay_t<decltype(w)>::Jac::RowsAtCompileTime;
+        if constexpr (rows != Eigen::Dynamic) {  // the fixed point kernels: fixed-size copies (m = rows)
+          Eigen::Map<Eigen::Matrix<double, rows, 1>>(out.error.data()) = w.e;
+          Eigen::Map<Eigen::Matrix<double, rows, 6>>(out.jacobian.data()) = w.J;
+        } else {
+          out.error = w.e.head(m);
+          out.jacobian = w.J.topRows(m);
+        }
         out.error_norm = out.error.norm();
-        out.jacobian = w.J.topRows(m);
         const AdaptiveGain& ag = o.adaptive_gain;
         out.gain = ag.enabled() ? ag(out.error_norm) : o.gain;
         out.law_switched = out.acceleration_limited = false;
