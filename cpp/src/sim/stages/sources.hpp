@@ -61,9 +61,9 @@ class Sources {
 
   /// The goal's measurements (frame -1) into desired(): goal the true world <- camera, uv_desired
   /// the controller's points there, goal_depth and goal_pose_estimate what the depth stage knows
-  /// there (Depths::teach), bearings_desired the goal's bearings (Measure::goal_bearings; null: none). Throws
-  /// std::invalid_argument if the goal's pose cannot be fitted (estimated), a source cannot measure
-  /// there or its block refuses it.
+  /// there (Depths::teach), bearings_desired the goal's bearings (Measure::goal_bearings; null:
+  /// none). Throws std::invalid_argument if the goal's pose cannot be fitted (estimated), a source
+  /// cannot measure there or its block refuses it.
   void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& goal_depth,
              const Pose* goal_pose_estimate, const Bearings* bearings_desired = nullptr);
 
