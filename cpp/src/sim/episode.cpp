@@ -272,7 +272,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     // Measure the feature blocks (a task's lines, ellipses...) on the frame the controller sees.
     if (sources.active()) {
       const int lost = sources.measure(k, measure.camera_from_world(seen), depths.pose_estimate(), measure.uv(),
-                                       depths.depth(), measure.bearings());
+                                       depths.depth(), &measure.bearings());
       if (lost < 0) stages::record_measurements(h, k, sources.measurements());
       if (judge.features(k, lost, st)) break;
     }

@@ -69,9 +69,9 @@ class Sources {
 
   /// Frame k: T_cw the camera <- world of the frame the controller sees, pose_estimate the depth
   /// stage's camera <- target (pose mode; null: none yet), uv, z and bearings the controller's
-  /// points, depths and bearings. Returns the first block that could not be measured, or -1.
+  /// points, depths and bearings (null: none). Returns the first block that could not be measured, or -1.
   int measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv, const Eigen::VectorXd& z,
-              const Bearings& bearings) noexcept;
+              const Bearings* bearings = nullptr) noexcept;
 
   const Eigen::VectorXd& measurements() const noexcept { return m_; }
   const Eigen::VectorXd& desired() const noexcept { return desired_; }
@@ -170,7 +170,7 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
 }
 
 inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv,
-                            const Eigen::VectorXd& z, const Bearings& bearings) noexcept {
+                            const Eigen::VectorXd& z, const Bearings* bearings) noexcept {
   if (!active()) return -1;
   SourceFrame f;
   f.frame = k;
@@ -178,7 +178,7 @@ inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, 
   f.goal = goal_known_;
   f.uv = &uv;
   f.depth = &z;
-  f.bearings = &bearings;
+  f.bearings = bearings;
   switch (mode_) {
     case DepthMode::exact: f.depth_pose = f.cMo; break;
     case DepthMode::desired: f.depth_pose = goal_cMo_; break;
