@@ -354,7 +354,7 @@ A Target carries one source per feature block of the servo's Task, in the Task's
 (Target(points, features=[...])). Each frame a source writes its block's measurement from the true
 pose of the target, the controller's points and what the depth mode knows (docs/simulator.md,
 "Feature sources"). The kinds: LineSource, SegmentSource, EllipseSource, MomentsSource, PbvsSource,
-Point25DSource, and FunctionSource (a Python callable's); others are added in C++ (ibvs/sim/source.hpp).)")
+Point25DSource, SphericalSource, and FunctionSource (a Python callable's); others are added in C++ (ibvs/sim/source.hpp).)")
       .def_property_readonly("size", &FeatureSource::size, "Values in one measurement (its Feature's size).")
       .def("__repr__", [](const FeatureSource& f) { return "<ibvs feature source " + f.describe() + ">"; });
 

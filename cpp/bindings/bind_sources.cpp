@@ -1,5 +1,5 @@
 // Bindings of the simulator's pose and moments feature sources (ibvs._core.sim): MomentsSource,
-// PbvsSource, Point25DSource beside LineSource (bind_sim.cpp). Argument conversion only.
+// PbvsSource, Point25DSource, SphericalSource beside LineSource (bind_sim.cpp). Argument conversion only.
 #include "convert.hpp"
 #include "ibvs/ibvs.hpp"
 #include "ibvs/sim/sim.hpp"
@@ -90,6 +90,22 @@ c*Rc from the depth mode's pose against the goal's as the same mode knew it (exa
                       [](const py::tuple& t) {
                         if (t.size() != 1) throw py::value_error("Point25DSource: bad pickle state");
                         return std::make_shared<sim::Point25DSource>(t[0].cast<int>());
+                      }));
+
+  py::class_<sim::SphericalSource, sim::FeatureSource, std::shared_ptr<sim::SphericalSource>>(s, "SphericalSource", R"(A point on the sphere (ibvs.SphericalPointFeature or SphericalPolarFeature) of target point i.
+
+SphericalSource(i=0): the bearing the controller has of point i (the sensor's pixel through
+CameraModel.to_bearing: over a fisheye's or omnidirectional lens's whole field of view, beyond 90
+degrees off the axis too) and its distance from the camera centre under the pose the depth mode gives
+(depth="exact": the true distance; "desired": the goal's). Lost when the pixel has no bearing.)")
+      .def(py::init([](py::handle i) { return std::make_shared<sim::SphericalSource>(int_in(i, "i", 0, max_points)); }),
+           py::arg("i") = 0)
+      .def_property_readonly("i", &sim::SphericalSource::i, "The target point's index.")
+      .def("__repr__", [](const sim::SphericalSource& x) { return "SphericalSource(" + std::to_string(x.i()) + ")"; })
+      .def(py::pickle([](const sim::SphericalSource& x) { return py::make_tuple(x.i()); },
+                      [](const py::tuple& t) {
+                        if (t.size() != 1) throw py::value_error("SphericalSource: bad pickle state");
+                        return std::make_shared<sim::SphericalSource>(t[0].cast<int>());
                       }));
 }
 

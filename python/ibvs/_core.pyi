@@ -982,6 +982,14 @@ class sim:
         def i(self) -> int:
             """The reference point (a target point's index)."""
 
+    class SphericalSource(FeatureSource):
+        """A point on the sphere (ibvs.SphericalPointFeature or SphericalPolarFeature) of target point i."""
+
+        def __init__(self, i: int = 0) -> None: ...
+        @property
+        def i(self) -> int:
+            """The target point's index."""
+
     class SegmentSource(FeatureSource):
         """An image segment (ibvs.SegmentFeature) between target points i and j: the controller's
         points and the depths the depth mode gives them."""

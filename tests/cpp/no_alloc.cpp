@@ -210,6 +210,36 @@ void pose_moments_episode_allocates_nothing() {
   }
 }
 
+// An episode of spherical blocks on a fisheye from 100 degrees off the axis (SphericalSource, the wide
+// lens's in-image test and bearings): nothing allocated per frame.
+void spherical_episode_allocates_nothing() {
+  using namespace sim_cases;
+  Eigen::Matrix3d K;
+  K << 300, 0, 640, 0, 300, 512, 0, 0, 1;
+  const CameraModel fish = CameraModel::from_opencv(K, Eigen::Vector4d(-0.013, 0.02, -0.012, 0.002), 1280, 1024, true);
+  Eigen::Matrix3Xd P(3, 4);
+  P << -0.25, 0.25, 0.25, -0.25, -0.25, -0.25, 0.25, 0.25, 1.0, 1.0, 1.0, 1.0;
+  Target t(P);
+  Task task;
+  for (int i = 0; i < 4; ++i) {
+    task.add(SphericalPolarFeature());
+    t.add(sim::SphericalSource(i));
+  }
+  EpisodeOptions o;
+  o.duration = 3.0;
+  o.noise = 0.1;
+  o.latency = 1;
+  Twist v;
+  v << 0.05, -0.04, -0.2, 0.0, 1.87, 0.3;
+  Episode e(Servo(task, ServoOptions{}), fish, t, o);
+  const long before = news.load();
+  const EpisodeResult& r = e.run(se3_exp(v), Pose::Identity());
+  const long during = news.load() - before;
+  ibvs_test::report(during == 0, "no allocation in Episode::run of a spherical task on a fisheye", __FILE__, __LINE__,
+                    std::to_string(during));
+  CHECK(r.history.frames > 100);
+}
+
 // An episode with a C++ sensor in place of the default (the measurement hook costs no allocation).
 class ShiftSensor final : public ibvs::sim::Sensor {
  public:
@@ -727,6 +757,7 @@ void run_tests() {
   sensor_episode_allocates_nothing();
   feature_episode_allocates_nothing();
   pose_moments_episode_allocates_nothing();
+  spherical_episode_allocates_nothing();
   pixels_allocate_nothing();
   moments_allocate_nothing();
   bearings_allocate_nothing();

@@ -646,9 +646,10 @@ void fuzz_task(Bytes& b) {
 
 // Feature sources: a LineSource (SegmentSource, EllipseSource) of any indices (centre, normal,
 // radius) on a target of any points is accepted or refused (std::invalid_argument); from any poses
-// and points, measure() answers false or finite values; a short episode of a line task (or a
-// PBVS + 2.5-D task, any depth mode and depth_scale: the goal estimated from its image) from any
-// start either throws std::invalid_argument or ends with finite recorded errors.
+// and points (and bearings), measure() answers false or finite values (every source); a short
+// episode of a line task (or a PBVS + 2.5-D task, any depth mode and depth_scale: the goal estimated
+// from its image) from any start either throws std::invalid_argument or ends with finite recorded
+// errors.
 void fuzz_sources(Bytes& b) {
   using namespace ibvs::sim;
   const int n = b.small(1, 5);
@@ -676,9 +677,12 @@ void fuzz_sources(Bytes& b) {
   Eigen::VectorXd z(n);
   for (Eigen::Index i = 0; i < uv.size(); ++i) uv.data()[i] = b.coordinate();
   for (Eigen::Index i = 0; i < n; ++i) z(i) = b.depth();
+  Bearings bearings(3, n);  // any values, also not unit (the spherical source passes them on)
+  for (Eigen::Index i = 0; i < bearings.size(); ++i) bearings.data()[i] = b.byte() < 16 ? b.real() : b.coordinate();
   f.points = &t.points;
   f.uv = &uv;
   f.depth = &z;
+  f.bearings = &bearings;
   double m[5];
   if (t.sources[0]->measure(f, m))
     CHECK(std::isfinite(m[0]) && std::isfinite(m[1]) && std::isfinite(m[2]) && std::isfinite(m[3]) &&
@@ -688,8 +692,9 @@ void fuzz_sources(Bytes& b) {
   const MomentsSource moments_region(MomentsFeature::Source::region), moments_points(MomentsFeature::Source::points);
   const PbvsSource to_camera(PbvsTarget::desired_camera), to_object(PbvsTarget::object);
   const Point25DSource reference(0);
+  const SphericalSource sphere(0);
   for (const FeatureSource* src : std::initializer_list<const FeatureSource*>{
-           &moments_region, &moments_points, &to_camera, &to_object, &reference}) {
+           &moments_region, &moments_points, &to_camera, &to_object, &reference, &sphere}) {
     try {
       src->validate(t.points, "fuzz");
     } catch (const std::invalid_argument&) {

@@ -135,6 +135,7 @@ PRINTS = {
     # frame 218 and 1.0 mm with OpenCV 5.0, 220 and 1.1 mm with 4.14 (sub-pixel corners differ between versions)
     ("docs/arms.md", "cv2.aruco.ArucoDetector"): ["(converged)", "camera 1."],
     ("docs/arms.md", "print(r, r.history.q.shape)"): ["converged at frame 765"],
+    ("docs/wide.md", 'ImageSensor.for_target(fish, target, "dots"'): ["converged at frame"],
     ("docs/arms.md", 'sim.cases.eye_to_hand("ur5", "z_rotation")'): ["eye_to_hand)", "converged at frame 795", "True"],
     ("docs/arms.md", "for projector in (None"): ["no avoidance: joint_limit", "classical: joint_limit",
                                                   "large: converged"],

@@ -147,11 +147,13 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
     }
   }
   const long frames = std::lround(options_.duration * camera_.fps());
-  stages_.reset(new Stages{stages::Measure(camera_, target_.world_points(), options_.latency, options_.min_depth),
+  stages_.reset(new Stages{stages::Measure(camera_, target_.world_points(), options_.latency, options_.min_depth,
+                                           task.n_points() == 0),
                            stages::Depths(options_, camera_, target_.points),  // pose: throws unless planar
                            stages::Sources(target_, std::holds_alternative<Servo>(servo_) ? &task : nullptr, options_),
                            stages::Control(task, camera_, options_, n), stages::Actuate(1.0 / camera_.fps()),
-                           stages::Judge(target_, options_, static_cast<int>(std::min(frames, 10'000'000L)))});
+                           stages::Judge(target_, options_, static_cast<int>(std::min(frames, 10'000'000L)),
+                                         wide_lens(camera_))});
   if (frames < 1 || frames > 10'000'000) throw std::invalid_argument("ibvs: duration * fps must be in [1, 1e7] frames");
   stages::allocate(result_.history, frames, n, task.rows(), task.measurement_size());
   result_.uv_desired.resize(2, n);
@@ -183,7 +185,8 @@ void Episode::prepare(const Pose& goal) {
   result_.measured_desired = s.measure.goal_measured();
   s.depths.aim(result_.depth_desired);
   s.depths.teach(result_.uv_desired);
-  s.sources.teach(goal, result_.uv_desired, s.depths.goal_depth(), s.depths.goal_pose_estimate());
+  s.sources.teach(goal, result_.uv_desired, s.depths.goal_depth(), s.depths.goal_pose_estimate(),
+                  &s.measure.goal_bearings());
   result_.measurements_desired = s.sources.desired();
   s.control.aim(s.measure.goal_measured());
   s.judge.aim(goal);
@@ -269,7 +272,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     // Measure the feature blocks (a task's lines, ellipses...) on the frame the controller sees.
     if (sources.active()) {
       const int lost = sources.measure(k, measure.camera_from_world(seen), depths.pose_estimate(), measure.uv(),
-                                       depths.depth());
+                                       depths.depth(), &measure.bearings());
       if (lost < 0) stages::record_measurements(h, k, sources.measurements());
       if (judge.features(k, lost, st)) break;
     }

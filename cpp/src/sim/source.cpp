@@ -2,6 +2,7 @@
 
 #include "ibvs/features.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/spherical.hpp"
 #include "ibvs/features/segment.hpp"
 #include "ibvs/limits.hpp"
 
@@ -209,6 +210,35 @@ bool Point25DSource::measure(const SourceFrame& f, double* m) const noexcept {
   m[2] = (*f.depth)(i_);
   for (int r = 0; r < 3; ++r) m[3 + r] = tu(r);
   return finite(m, 6);
+}
+
+SphericalSource::SphericalSource(int i) : i_(i) {
+  if (i < 0) throw std::invalid_argument("ibvs: spherical: point index must be >= 0, got " + std::to_string(i));
+}
+
+bool SphericalSource::fits(const Feature& f) const noexcept {
+  return dynamic_cast<const SphericalPointFeature*>(&f) != nullptr ||
+         dynamic_cast<const SphericalPolarFeature*>(&f) != nullptr;
+}
+
+void SphericalSource::validate(const Eigen::Matrix3Xd& points, const std::string& name) const {
+  if (i_ >= points.cols())
+    throw std::invalid_argument("ibvs: " + name + ": point " + std::to_string(i_) +
+                                " is not a target point (the target has " + std::to_string(points.cols()) + ")");
+}
+
+bool SphericalSource::measure(const SourceFrame& f, double* m) const noexcept {
+  if (!f.bearings || !f.points) return false;
+  const Eigen::Vector3d b = f.bearings->col(i_);
+  const Eigen::Vector3d p =
+      f.depth_pose.topLeftCorner<3, 3>() * f.points->col(i_) + f.depth_pose.topRightCorner<3, 1>();
+  const double R = p.norm();
+  if (!b.allFinite() || !std::isfinite(R) || !(R > 0.0)) return false;
+  m[0] = b(0);
+  m[1] = b(1);
+  m[2] = b(2);
+  m[3] = R;
+  return true;
 }
 
 }  // namespace ibvs::sim

@@ -26,6 +26,7 @@ from __future__ import annotations
 from . import cases
 from .episode import Camera, FeatureSource, Gantry, LineSource, Robot, Sensor, Target, run
 from .episode import MomentsSource, PbvsSource, Point25DSource
+from .episode import SphericalSource
 from .episode import EllipseSource, FunctionSource, SegmentSource, plane_in_camera
 from .hand_eye import HandEyeData, HandEyeScene, collect_hand_eye, hand_eye_scene
 from .ik import IKResult, solve_ik
@@ -57,6 +58,7 @@ __all__ = [
     "RunStatus",
     "SegmentSource",
     "Sensor",
+    "SphericalSource",
     "Target",
     "UrdfRobot",
     "cases",

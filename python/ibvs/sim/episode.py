@@ -26,6 +26,7 @@ LineSource = _sim.LineSource
 MomentsSource = _sim.MomentsSource
 PbvsSource = _sim.PbvsSource
 Point25DSource = _sim.Point25DSource
+SphericalSource = _sim.SphericalSource
 SegmentSource = _sim.SegmentSource
 EllipseSource = _sim.EllipseSource
 FunctionSource = _sim.FunctionSource
@@ -111,6 +112,10 @@ def run(
         features=[LineSource(0, 1), ...]); docs/simulator.md, "Feature sources"). A point the
         camera model cannot map (beyond its max_radius) ends the episode as left_image, like a
         point outside the sensor; the target's points decide it for the features made of them.
+        A fisheye or omnidirectional camera (distortion "equidistant" or "omnidir") sees a point
+        when from_bearing maps it inside its image circle and onto the sensor, whatever the sign of
+        its depth (behind_camera: closer than 1 mm to the camera centre); sim.SphericalSource feeds
+        spherical blocks with the bearings of the measured pixels (docs/wide.md).
         A block its source cannot measure (e.g. a line's plane through the camera centre) ends
         it as lost_feature (RunStatus.feature).
     start, goal: 4x4 world <- camera poses; with a robot (an ibvs.sim.Robot: a Gantry, a

@@ -12,7 +12,8 @@ Pixel coordinates are OpenCV's (and CameraModel's, cv2.projectPoints'): the cent
 column c and row r is (u, v) = (c, r). A camera for images has a pixel sensor whose bounds are
 [0, width] x [0, height] with integer width and height.
 
-Modules: images (cameras with images, image checks), renderer (Renderer), track (Track), dots
+Modules: images (cameras with images, image checks), renderer (Renderer; rays: its path for fisheye and
+omnidirectional lenses, through each pixel's bearing), track (Track), dots
 (DotTracker), tag (TagDetector), moments (image_moments: a binary image's moments), blob (blob_source: blob
 moments and ellipses from rendered images, for sim.Target(features=...)), sensor (ImageSensor), video (draw_points, write_video); this
 package re-exports their public names. Rendering is described in ibvs.vision.renderer.

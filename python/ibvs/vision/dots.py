@@ -18,8 +18,10 @@ __all__ = ["DotTracker"]
 class DotTracker:
     """Bright dots on a dark background, tracked frame to frame.
 
-    DotTracker(n_points, image_size, threshold=None, gate=10.0, min_area=4)
+    DotTracker(n_points, image_size, threshold=None, gate=10.0, min_area=4, mask=None)
       image_size  (width, height) of the images (e.g. Renderer.size)
+      mask        None, or (height, width): the pixels that see (non-zero), e.g. a fisheye's image
+                  circle (Renderer.mask); a blob touching a pixel that does not is lost ("lost_border")
       threshold   gray level separating dots from the plate; None: Otsu's on the first image
       gate        px added to 1.5 dot radii: the half-side of the square searched around each
                   point's predicted position (constant-velocity prediction from its last two positions)
@@ -41,6 +43,7 @@ class DotTracker:
         threshold: Optional[float] = None,
         gate: float = 10.0,
         min_area: int = 4,
+        mask=None,
     ):
         if (
             isinstance(n_points, bool)
@@ -61,6 +64,15 @@ class DotTracker:
         if isinstance(min_area, bool) or not isinstance(min_area, (int, np.integer)) or min_area < 1:
             raise ValueError(f"min_area must be an int >= 1, got {min_area!r}")
         self.min_area = int(min_area)
+        self._blind = None  # the pixels that do not see (uint8 1), or None
+        if mask is not None:
+            m = np.asarray(mask)
+            if m.shape != (self.size[1], self.size[0]) or m.dtype.kind not in "biu":
+                raise ValueError(
+                    f"mask must be None or a (height, width) = {(self.size[1], self.size[0])} array of "
+                    f"booleans or integers, got shape {m.shape} and dtype {m.dtype}"
+                )
+            self._blind = None if m.all() else (m == 0).astype(np.uint8)
         self._last = self._prev = None
 
     def reset(self, pixels) -> None:
@@ -139,6 +151,9 @@ class DotTracker:
                 continue
             blob = (labels == best).astype(np.uint8)
             grown = cv2.dilate(blob, kernel)
+            if self._blind is not None and (grown & self._blind[cy0:cy1, cx0:cx1]).any():
+                status[i] = "lost_border"  # cut by the edge of the image circle
+                continue
             others = (labels > 0) & (blob == 0)
             bg_pixels = roi[(grown == 0) & ~others]
             bg = float(np.median(bg_pixels)) if bg_pixels.size else 0.0

@@ -6,7 +6,11 @@ row along its y, seen from the side of the target's -z axis), kept as a pyramid 
 (halvings by area averaging) from which the level closest to one texel per image pixel at the
 target's centre is warped (bilinear) into an ideal pinhole image, then remapped through the
 camera's distortion: each sensor pixel reads the pinhole image at CameraModel.normalize of its
-centre. Dots are drawn with anti-aliased edges (coverage of each texel), so that the intensity
+centre. A fisheye or omnidirectional lens (distortion "equidistant" or "omnidir") has no pinhole
+image beyond 90 degrees: it is drawn through bearings instead (ibvs.vision.rays: each pixel's ray,
+CameraModel.to_bearing, met with the target's plane, then one remap of the texture), and the
+pixels outside its image circle (where to_bearing refuses) are black (0, without noise). Dots are
+drawn with anti-aliased edges (coverage of each texel), so that the intensity
 centroid of a rendered dot is the area centroid of the dot's image (see tests/python/test_vision.py:
 that, not the projection of the dot's centre, is what a centroid can be compared with; they differ
 by the perspective and distortion of a finite disc, up to about 0.1 px at 15 px radius).
@@ -22,6 +26,7 @@ import numpy as np
 from .._core import se3_exp
 from .._core import sim as _sim
 from .images import camera_image_size, check_real, opencv
+from .rays import WIDE_MODELS, Rays
 from .tag import TAG_DICTIONARIES
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -54,6 +59,9 @@ class Renderer:
                    camera moving with `twist` (5 sub-frames), 0 = none
       noise        sensor noise: std of additive Gaussian noise in gray levels, then 8-bit quantisation
       seed         of the noise (a numpy default_rng); reseed() restarts it
+    A fisheye or omnidirectional camera (distortion "equidistant" or "omnidir": wide is True) is drawn
+    through each pixel's bearing, over its whole field of view (beyond 90 degrees off the axis); mask
+    is then its image circle (255 inside; the pixels outside are black), or None when every pixel sees.
     """
 
     DOT, PLATE, BACKGROUND = 230.0, 30.0, 10.0  # gray levels for dots
@@ -140,9 +148,15 @@ class Renderer:
             hi = lo + (modules + 2 * quiet) * side / modules
             self.background = self.TAG_BACKGROUND
         self._build_texture(cv2, lo, hi, xy)
+        self.wide = camera.distortion in WIDE_MODELS
+        self._rays = Rays(camera, self.size) if self.wide else None
+        #: (height, width) uint8, 255 where the lens images (inside a wide lens's image circle), or None
+        #: (every pixel: a perspective model)
+        self.mask = None if self._rays is None or self._rays.everywhere else self._rays.mask
         self._build_lens()
         self._target_pose = np.asarray(target.pose, dtype=np.float64)
         self._centre = np.append(xy.mean(0), 1.0)
+        self._level_points = np.vstack([xy, xy.mean(0)])  # where a wide lens's texture level is chosen
         rows, cols = self._pyramid[0].shape
         o, ex, ey = self._origin, cols * self._d0, rows * self._d0
         self._corners = np.array(
@@ -239,7 +253,7 @@ class Renderer:
         self._map = None
         self._shift = np.zeros(2)
         self._pinhole_size = (w, h)
-        if cam.distortion == "none":
+        if cam.distortion == "none" or self.wide:
             return
         uu, vv = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
         pix = np.stack([uu.ravel(), vv.ravel()], 1)
@@ -256,18 +270,22 @@ class Renderer:
         self._map = (m[:, 0].reshape(h, w).astype(np.float32), m[:, 1].reshape(h, w).astype(np.float32))
 
     # -- per frame --
-    def _homography(self, pose_wc: np.ndarray) -> Optional[np.ndarray]:
-        """Target plane (x, y, 1) -> pinhole pixel, or None when the camera sees the plate's blank back
-        (it is behind the plate's plane, or on it)."""
+    def _plane(self, pose_wc: np.ndarray) -> Optional[np.ndarray]:
+        """H = [r1 r2 t]: target plane (x, y, 1) -> the point in the camera frame (R, t: camera <- target),
+        or None when the camera sees the plate's blank back (it is behind the plate's plane, or on it)."""
         T_wt = self._target_pose
         R_cw = pose_wc[:3, :3].T  # rigid inverse
         R = R_cw @ T_wt[:3, :3]
         t = R_cw @ (T_wt[:3, 3] - pose_wc[:3, 3])
-        # the camera centre in the target frame is -R^T t: in front when its z < 0
-        if (R[:, 2] @ t) <= 0 or not np.isfinite(t).all():
+        # the camera centre in the target frame is -R^T t: in front when its z < 0 (edge-on: no image)
+        if not np.isfinite(t).all() or (R[:, 2] @ t) <= 1e-12 * max(1.0, float(np.linalg.norm(t))):
             return None
-        Hp = self._K_pinhole @ np.column_stack([R[:, 0], R[:, 1], t])
-        return Hp
+        return np.column_stack([R[:, 0], R[:, 1], t])
+
+    def _homography(self, pose_wc: np.ndarray) -> Optional[np.ndarray]:
+        """Target plane (x, y, 1) -> pinhole pixel, or None when the camera sees the plate's blank back."""
+        H = self._plane(pose_wc)
+        return None if H is None else self._K_pinhole @ H
 
     def _box(self, Hp: np.ndarray) -> Optional[Tuple[int, int, int, int]]:
         """The pinhole image's box (x0, y0, x1, y1) holding the plate, or None (the whole image) when
@@ -341,6 +359,8 @@ class Renderer:
                     pose_wc @ se3_exp(v * (-self.exposure * j / (self.MOTION_SAMPLES - 1)))
                     for j in range(1, self.MOTION_SAMPLES)
                 ]
+        if self.wide:
+            return self._finish(cv2, self._region_wide(cv2, poses))
         W, H = self.size
         region = None  # the sensor pixels the plate covers: ((x0, y0, x1, y1), float32 gray levels)
         Hs = [Hp for Hp in (self._homography(p) for p in poses)]
@@ -376,6 +396,49 @@ class Renderer:
                             borderValue=float(self.background),
                         )
                     region = ((sx0, sy0, sx1, sy1), pixels)
+        return self._finish(cv2, region)
+
+    def _region_wide(self, cv2, poses):
+        """The plate through a wide lens: ((x0, y0, x1, y1), float32 gray levels) of the sensor pixels it
+        may cover, the mean over the exposure's poses, or None when no pose sees its front."""
+        Hs = [self._plane(p) for p in poses]
+        visible = [H for H in Hs if H is not None]
+        if not visible:
+            return None
+        rays = self._rays
+        boxes = [rays.box(H, self._corners) for H in visible]
+        box = tuple(int(f(v)) for f, v in zip((min, min, max, max), zip(*boxes)))
+        if not (box[2] > box[0] and box[3] > box[1]):
+            return None
+        # one texture level for the frame: about 0.7 image pixel per texel or more at the target's point
+        # imaged smallest (a wide lens's scale varies much over a plate; finer texels there would alias)
+        ppm = rays.pixels_per_metre(visible[0], self._level_points)
+        level = 0 if ppm is None else int(
+            np.clip(math.ceil(math.log2(0.7 / max(ppm * self._d0, 1e-12))), 0, self.LEVELS - 1)
+        )
+        d = self._d0 * 2**level
+        S = np.array([[d, 0, self._origin[0] + 0.5 * d], [0, d, self._origin[1] + 0.5 * d], [0, 0, 1.0]])
+        pixels = None
+        for H in visible:
+            mx, my = rays.maps(cv2, np.linalg.inv(H @ S), box)
+            img = cv2.remap(self._pyramid[level], mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                            borderValue=float(self.background))
+            pixels = img if pixels is None else pixels + img
+        if len(Hs) > 1:  # motion blur: sub-frames seeing the plate's back see the background
+            pixels += float(self.background) * (len(Hs) - len(visible))
+            pixels *= 1.0 / len(Hs)
+        return box, pixels
+
+    def _finish(self, cv2, region) -> np.ndarray:
+        """The frame from the plate's region (or None): blur, noise, 8-bit quantisation, the image circle."""
+        out = self._finish_rect(cv2, region)
+        if self._rays is not None and not self._rays.everywhere:
+            cv2.bitwise_and(out, self._rays.mask, dst=out)
+        return out
+
+    def _finish_rect(self, cv2, region) -> np.ndarray:
+        """The sensor's frame: the background with the plate's region, blurred, noisy, quantised."""
+        W, H = self.size
         noise, out = self._noise(cv2)
         if self.blur > 0:  # defocus spreads the plate over the background: the whole frame in float
             img = np.full((H, W), self.background, np.float32)

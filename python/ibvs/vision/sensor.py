@@ -22,7 +22,9 @@ class ImageSensor(_sim.Sensor):
     and 0 from the true projections, as a user clicks on the dots; or a TagDetector) -> pixels, NaN
     for a lost point (the episode then ends as lost_feature). The renderer's noise is reseeded with
     the run's seed. keep_frames=True keeps every image (frames[k] is frame k; goal_image the goal's)
-    for a video; render_seconds and detect_seconds hold each frame's times.
+    for a video; render_seconds and detect_seconds hold each frame's times. With a fisheye or
+    omnidirectional lens (Renderer.wide) the default DotTracker (for_target) loses a dot cut by the edge
+    of the image circle (Renderer.mask).
     """
 
     def __init__(self, renderer: Renderer, detector, keep_frames: bool = False):
@@ -52,7 +54,7 @@ class ImageSensor(_sim.Sensor):
         (dots) or a TagDetector of tag 0 (tag)."""
         r = Renderer(camera, target, kind, **renderer_options)
         if kind == "dots":
-            det = DotTracker(len(target), r.size)
+            det = DotTracker(len(target), r.size, mask=r.mask)
         else:
             det = TagDetector((r.tag_id,), r.dictionary, image_size=r.size)
         return cls(r, det, keep_frames)

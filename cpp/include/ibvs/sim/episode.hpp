@@ -11,7 +11,10 @@
 //      target_backside, below), then the target's points in the camera frame:
 //      a point with depth below min_depth ends the episode (behind_camera);
 //      one whose noise-free projection falls outside the sensor, or that the
-//      camera model cannot map (beyond its max_radius), ends it as left_image;
+//      camera model cannot map (beyond its max_radius), ends it as left_image
+//      (a wide lens, wide_lens() below: the image circle and the sensor decide,
+//      whatever the sign of the depth; behind_camera is a distance below
+//      min_depth);
 //   3. the measurement, by the episode's Sensor (sim/sensor.hpp) from the
 //      camera model's true projections (ibvs::CameraModel: kud for the
 //      paper's ViSP camera): by default those plus Gaussian noise (seeded;
@@ -155,6 +158,16 @@ enum class DepthMode : std::uint8_t {
   desired = 2,  ///< the constant desired depths z*
   estimated = 3,  ///< online estimate from successive frames and the known camera motion (see above)
 };
+
+/// A lens that sees beyond 90 degrees off its axis (distortion equidistant or omnidir: a fisheye or
+/// an omnidirectional camera). For it the episode judges a point in the image when
+/// CameraModel::from_bearing maps it inside the lens's image circle (max_angle) and onto the sensor,
+/// whatever the sign of its depth; behind_camera only when it is closer than min_depth to the
+/// camera centre; and max_depth_ratio bounds the target centroid's distance (the camera retreat
+/// stays the rise of its depth z).
+inline bool wide_lens(const CameraModel& camera) noexcept {
+  return camera.distortion() == Distortion::equidistant || camera.distortion() == Distortion::omnidir;
+}
 
 /// How an episode ended.
 enum class Outcome : std::uint8_t {

@@ -27,6 +27,9 @@
 //     the camera centre, as the points' depths are), except for estimated;
 //   * depth: the depths the depth mode gave the points (N), for per-point
 //     depth inputs (a segment's endpoint depths);
+//   * bearings: the controller's points as unit bearings (3 x N; the sensor's
+//     pixels, with their noise and latency, through CameraModel::to_bearing:
+//     beyond 90 degrees off the axis too), for features on the sphere;
 //   * goal: the goal's camera <- target pose c*Mo as the depth mode knew it at
 //     the goal (frame -1, teach by showing), for features whose measurement
 //     compares the current pose with the desired one (PBVS, 2.5-D) or needs
@@ -56,6 +59,7 @@
 // function; LineSource below is the model.
 #pragma once
 
+#include "ibvs/camera_model.hpp"
 #include "ibvs/feature.hpp"
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/moments.hpp"
@@ -79,6 +83,7 @@ struct SourceFrame {
   const Eigen::Matrix3Xd* points = nullptr;     ///< 3 x N target points, target frame
   const Points* uv = nullptr;                   ///< 2 x N the controller's points, normalised
   const Eigen::VectorXd* depth = nullptr;       ///< N depths the depth mode gave them, metres
+  const Bearings* bearings = nullptr;           ///< 3 x N the controller's points as unit bearings (NaN: not mapped)
 };
 
 class FeatureSource {
@@ -181,6 +186,26 @@ class Point25DSource final : public FeatureSource {
   std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<Point25DSource>(*this); }
   std::string describe() const override { return "point25d(" + std::to_string(i_) + ")"; }
   int size() const noexcept override { return 6; }
+  bool fits(const Feature& f) const noexcept override;
+  void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
+  bool measure(const SourceFrame& frame, double* m) const noexcept override;
+  int i() const noexcept { return i_; }
+
+ private:
+  int i_;
+};
+
+/// A point on the sphere (SphericalPointFeature or SphericalPolarFeature) of target point i: the
+/// bearing b the controller has of it (SourceFrame::bearings: the sensor's pixel through
+/// CameraModel::to_bearing, valid over the lens's whole field of view) and its distance
+/// R = |R_d p_i + t_d| from the depth pose (exact: the true distance; desired: the goal's; pose,
+/// estimated: from their pose). Lost when the pixel has no bearing or the depth pose is unknown.
+class SphericalSource final : public FeatureSource {
+ public:
+  explicit SphericalSource(int i = 0);
+  std::unique_ptr<FeatureSource> clone() const override { return std::make_unique<SphericalSource>(*this); }
+  std::string describe() const override { return "spherical(" + std::to_string(i_) + ")"; }
+  int size() const noexcept override { return 4; }
   bool fits(const Feature& f) const noexcept override;
   void validate(const Eigen::Matrix3Xd& points, const std::string& name) const override;
   bool measure(const SourceFrame& frame, double* m) const noexcept override;

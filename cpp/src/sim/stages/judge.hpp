@@ -38,8 +38,10 @@ namespace ibvs::sim::stages {
 
 class Judge {
  public:
-  /// frames: the history's capacity (timeout at frame frames - 1).
-  Judge(const Target& target, const EpisodeOptions& options, int frames);
+  /// frames: the history's capacity (timeout at frame frames - 1); by_distance: max_depth_ratio
+  /// bounds the target centroid's distance from the camera centre, not its z (a wide lens,
+  /// wide_lens(), whose target may start beside or behind the camera). The retreat is along z.
+  Judge(const Target& target, const EpisodeOptions& options, int frames, bool by_distance = false);
 
   /// The faces from the goal camera (world <- camera): the front, the standoff.
   void aim(const Pose& goal) noexcept;
@@ -73,23 +75,24 @@ class Judge {
  private:
   EpisodeOptions options_;
   int last_ = 0;  // the last frame (timeout)
-  bool planar_ = false;
+  bool planar_ = false, by_distance_ = false;
   Eigen::Matrix3d target_rotation_ = Eigen::Matrix3d::Identity();  // world <- target
   Eigen::Matrix3Xd world_points_;
   Eigen::Vector3d centroid_w_ = Eigen::Vector3d::Zero();  // of the points, in the world
   Eigen::Vector3d front_ = Eigen::Vector3d::Zero();
   double extent_ = 0.0, standoff_ = 0.0;
   // references of the run: the target's depth at frame 0, the error norm at frame 0
-  double depth0_ = 0.0, error0_ = 0.0, retreat_ = 0.0;
+  double depth0_ = 0.0, range0_ = 0.0, error0_ = 0.0, retreat_ = 0.0;
   Eigen::Vector3d c_prev_ = Eigen::Vector3d::Zero();  // the camera centre at the last frame judged
 };
 
 // ---------------------------------------------------------------- implementation
 
-inline Judge::Judge(const Target& target, const EpisodeOptions& options, int frames)
+inline Judge::Judge(const Target& target, const EpisodeOptions& options, int frames, bool by_distance)
     : options_(options),
       last_(frames - 1),
       planar_(target.planar()),
+      by_distance_(by_distance),
       target_rotation_(target.pose.topLeftCorner<3, 3>()),
       world_points_(target.world_points()) {
   const Eigen::Vector3d centroid = target.points.rowwise().mean();  // target frame
@@ -112,10 +115,14 @@ inline void Judge::aim(const Pose& goal) noexcept {
 
 inline bool Judge::camera(int k, const Pose& T_wc, const Eigen::Matrix3d& Rcw, const Eigen::Vector3d& tcw,
                           bool kinematics_ok, EpisodeStatus& st) noexcept {
-  const double target_depth = (Rcw * centroid_w_ + tcw)(2);  // of the points' centroid
-  if (k == 0) depth0_ = target_depth;
+  const Eigen::Vector3d centroid = Rcw * centroid_w_ + tcw;  // of the points, camera frame
+  const double target_depth = centroid(2), range = by_distance_ ? centroid.norm() : target_depth;
+  if (k == 0) {
+    depth0_ = target_depth;
+    range0_ = range;
+  }
   retreat_ = std::max(retreat_, target_depth - depth0_);
-  if (!kinematics_ok || !T_wc.allFinite() || target_depth > options_.max_depth_ratio * std::abs(depth0_)) {
+  if (!kinematics_ok || !T_wc.allFinite() || range > options_.max_depth_ratio * std::abs(range0_)) {
     st = {Outcome::diverged, k, -1, -1};
     return true;
   }

@@ -63,15 +63,17 @@ class Sources {
 
   /// The goal's measurements (frame -1) into desired(): goal the true world <- camera, uv_desired
   /// the controller's points there, goal_depth and goal_pose_estimate what the depth stage knows
-  /// there (Depths::teach). Throws std::invalid_argument if the goal's pose cannot be fitted
-  /// (estimated), a source cannot measure there or its block refuses it.
+  /// there (Depths::teach), bearings_desired the goal's bearings (Measure::goal_bearings; null:
+  /// none). Throws std::invalid_argument if the goal's pose cannot be fitted (estimated), a source
+  /// cannot measure there or its block refuses it.
   void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& goal_depth,
-             const Pose* goal_pose_estimate);
+             const Pose* goal_pose_estimate, const Bearings* bearings_desired = nullptr);
 
   /// Frame k: T_cw the camera <- world of the frame the controller sees, pose_estimate the depth
-  /// stage's camera <- target (pose mode; null: none yet), uv and z the controller's points and
-  /// depths. Returns the first block that could not be measured, or -1.
-  int measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv, const Eigen::VectorXd& z) noexcept;
+  /// stage's camera <- target (pose mode; null: none yet), uv, z and bearings the controller's
+  /// points, depths and bearings (null: none). Returns the first block that could not be measured, or -1.
+  int measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv, const Eigen::VectorXd& z,
+              const Bearings* bearings = nullptr) noexcept;
 
   const Eigen::VectorXd& measurements() const noexcept { return m_; }
   const Eigen::VectorXd& desired() const noexcept { return desired_; }
@@ -136,7 +138,7 @@ inline int Sources::measure_all(SourceFrame& f, Eigen::VectorXd& m) const noexce
 }
 
 inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& goal_depth,
-                           const Pose* goal_pose_estimate) {
+                           const Pose* goal_pose_estimate, const Bearings* bearings_desired) {
   if (!active()) return;
   goal_cMo_ = se3_inverse(goal) * target_.pose;
   goal_known_ = goal_cMo_;  // exact, desired: the goal pose given
@@ -157,6 +159,7 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
   f.depth_pose = f.goal = goal_known_;
   f.uv = &uv_desired;
   f.depth = &goal_depth;
+  f.bearings = bearings_desired;
   f.points = &target_.points;
   for (int k = 0; k < task_->n_features(); ++k) {
     const auto& source = *target_.sources[static_cast<std::size_t>(k)];
@@ -169,7 +172,7 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
 }
 
 inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, const Points& uv,
-                            const Eigen::VectorXd& z) noexcept {
+                            const Eigen::VectorXd& z, const Bearings* bearings) noexcept {
   if (!active()) return -1;
   SourceFrame f;
   f.frame = k;
@@ -177,6 +180,7 @@ inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, 
   f.goal = goal_known_;
   f.uv = &uv;
   f.depth = &z;
+  f.bearings = bearings;
   switch (mode_) {
     case DepthMode::exact: f.depth_pose = f.cMo; break;
     case DepthMode::desired: f.depth_pose = goal_cMo_; break;
