@@ -10,6 +10,7 @@
 #include <type_traits>
 #include <algorithm>
 #include <variant>
+#include <vector>
 
 namespace ibvs {
 namespace {
@@ -183,9 +184,12 @@ struct Work {
 
   // Rows after the points: each feature block's error and interaction matrix, from the current
   // measurement aligned to the goal's (a copy in `aligned`); `spare` holds the goal's rows for
-  // InteractionMatrix::mean. Then the task's weights and degrees of freedom.
-  void assemble_features(const Task& task, InteractionMatrix which, const double* m, const double* md,
-                         double* aligned, MatrixX6& spare) noexcept {
+  // InteractionMatrix::mean. With `angles` (the consistent wrap), each block's angle rows about
+  // the optical axis (Feature::axis_angle_rows) are recorded there; returns whether there are any.
+  // Then (weigh) the task's weights and degrees of freedom.
+  bool assemble_features(const Task& task, InteractionMatrix which, const double* m, const double* md,
+                         double* aligned, MatrixX6& spare, std::uint64_t* angles) noexcept {
+    std::uint64_t any = 0;
     for (int k = 0; k < task.n_features(); ++k) {
       const Feature& f = task.feature(k);
       const int row = task.row(k), off = task.offset(k), r = f.rows();
@@ -193,6 +197,7 @@ struct Work {
       std::copy(m + off, m + off + f.size(), mc);
       f.align(mc, md + off);
       f.error(mc, md + off, e.data() + row);
+      if (angles) any |= angles[k] = f.axis_angle_rows(mc, md + off);
       auto rows = J.middleRows(row, r);
       switch (which) {
         case InteractionMatrix::current: f.interaction(mc, rows); break;
@@ -204,6 +209,24 @@ struct Work {
           break;
       }
     }
+    return any != 0;
+  }
+
+  // The feature blocks' angle rows (recorded by assemble_features) in the consistent wrap: their
+  // differences (error() gives them in (-pi, pi]) added to the points' resultant ...
+  void add_feature_angles(const Task& task, const std::uint64_t* angles, AngleResultant& sum) const noexcept {
+    for (int k = 0; k < task.n_features(); ++k)
+      for (int i = 0; i < std::min(task.feature(k).rows(), 64); ++i)
+        if (angles[k] >> i & 1U) {
+          const double d = e(task.row(k) + i);
+          sum.add(std::cos(d), std::sin(d));
+        }
+  }
+  // ... and, once the centre is known, re-wrapped about it as the points' are.
+  void wrap_feature_angles(const Task& task, const std::uint64_t* angles, double centre) noexcept {
+    for (int k = 0; k < task.n_features(); ++k)
+      for (int i = 0; i < std::min(task.feature(k).rows(), 64); ++i)
+        if (angles[k] >> i & 1U) e(task.row(k) + i) = wrap_about(e(task.row(k) + i), centre);
   }
   void weigh(const Task& task) noexcept {
     const std::vector<double>& pw = task.point_weights();
@@ -241,6 +264,7 @@ struct Servo::Kernel {
       work;
 
   Eigen::VectorXd aligned;  // the current measurements, aligned to the goal's (feature blocks)
+  std::vector<std::uint64_t> angles;  // each feature block's angle rows this frame (consistent wrap)
   MatrixX6 spare;           // a feature block's rows at the goal (InteractionMatrix::mean)
   Points uv_valid;          // uv and depth with the lost points at their goal (ServoInput::valid)
   Eigen::VectorXd z_valid;
@@ -258,6 +282,7 @@ struct Servo::Kernel {
     int largest = 0;
     for (int k = 0; k < task.n_features(); ++k) largest = std::max(largest, task.feature(k).rows());
     aligned = Eigen::VectorXd::Zero(task.measurement_size());
+    angles.assign(static_cast<std::size_t>(task.n_features()), 0);
     spare = MatrixX6::Zero(largest, 6);
     uv_valid = Points::Zero(2, task.n_points());
     z_valid = Eigen::VectorXd::Ones(task.n_points());
@@ -548,18 +573,25 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
           return detail::refuse(out);  // unreachable: the constructor always builds a kernel
         } else {
+        const bool plain = task_.points_only();
+        const bool consistent = o.angle_wrap == AngleWrap::consistent;
+        // The feature blocks first: their angle rows about the axis join the consistent wrap.
+        bool feature_angles = false;
+        if (!plain)
+          feature_angles = w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
+                                               kernel.aligned.data(), kernel.spare,
+                                               consistent ? kernel.angles.data() : nullptr);
         // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
         double centre = std::numeric_limits<double>::quiet_NaN();
-        if (o.angle_wrap == AngleWrap::consistent) {
-          const AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
-                                           : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
+        if (consistent) {
+          AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
+                                     : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
+          if (feature_angles) w.add_feature_angles(task_, kernel.angles.data(), sum);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
         out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
-        const bool plain = task_.points_only();
         if (!plain) {
-          w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
-                              kernel.aligned.data(), kernel.spare);
+          if (feature_angles && !std::isnan(centre)) w.wrap_feature_angles(task_, kernel.angles.data(), centre);
           w.weigh(task_);
         }
         out.lost_points = lost;
