@@ -380,6 +380,10 @@ class Feature:
         """The block's feature values s (rows,)."""
     def error(self, measurement: _ArrayLike, measurement_desired: _ArrayLike) -> _FloatArray:
         """s (-) s*: the measurement aligned to the goal's, angles wrapped (rows,)."""
+    def axis_angle_rows(self, measurement: _ArrayLike, measurement_desired: _ArrayLike) -> list[int]:
+        """The error rows that are angles about the optical axis at these measurements: they join a Servo's
+        consistent angle wrap (angle_wrap="consistent") with the polar points' theta rows. [] for most kinds;
+        [1] (the azimuth) for a SphericalPolarFeature off the axis."""
     def interaction(self, measurement: _ArrayLike) -> _FloatArray:
         """The interaction matrix L (rows, 6): ds/dt = L v for the camera twist v."""
 

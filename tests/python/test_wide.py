@@ -105,6 +105,7 @@ def test_spherical_polar_half_turn_turns_about_the_axis_like_polar():
     cam = wide.camera()
     _, m = wide._measure("spherical_polar", cam, wide.in_camera(T0, wide.target_points()))
     _, g = wide._measure("spherical_polar", cam, wide.in_camera(np.eye(4), wide.target_points()))
+    assert ibvs.SphericalPolarFeature().axis_angle_rows(m[:4], g[:4]) == [1]  # the azimuth joins the wrap
     none = np.zeros((0, 2))
     split = _spherical_polar_per_point().update(none, none[:, 0], none, measurements=m, measurements_desired=g)
     np.testing.assert_allclose(np.abs(split.error[1::2]), math.pi, rtol=0, atol=1e-12)
