@@ -426,7 +426,7 @@ void fuzz_wide(Bytes& b) {
 // angle row of the consistent one is the per-point row or it -/+ 2 pi exactly, every other row equal.
 void fuzz_wide_wrap(Bytes& b) {
   const int n = b.small(0, 2), blocks = b.small(1, 4);
-  Task task(Layout::polar(n));
+  Task task = n > 0 ? Task(Layout::polar(n)) : Task();
   for (int k = 0; k < blocks; ++k) task.add(SphericalPolarFeature(b.byte() < 200 ? 1e-3 : 0.2));
   ServoOptions o;
   o.polar_min_radius = b.byte() < 128 ? 0.0 : 1e-3;
@@ -456,7 +456,7 @@ void fuzz_wide_wrap(Bytes& b) {
     }
     const Status sc = consistent.update(in, oc), sp = per_point.update(in, op);
     CHECK((sc == Status::invalid_input) == (sp == Status::invalid_input));
-    check_output(oc, sc, false, "Servo(spherical polar, consistent)::update");
+    check_output(oc, sc, o.diagnostics, "Servo(spherical polar, consistent)::update");
     if (sc == Status::invalid_input) continue;
     for (Eigen::Index r = 0; r < oc.error.size(); ++r) {
       const double d = oc.error(r) - op.error(r);

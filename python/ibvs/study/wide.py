@@ -599,6 +599,13 @@ def summary(rows: Sequence[Row]) -> list[str]:
                    f"from {still} of the sweep's {len(sweep)} angles, {half}; from the random starts they converged "
                    f"{conv('spherical_polar')} times, IBVS-P {conv('polar')}, IBVS-P with its θ errors wrapped per "
                    f"point {conv('polar_per_point')}.")
+    if n and any(r.scheme == "spherical_stacked" for r in gen):
+        best = max(SCHEMES, key=lambda s: conv(s))
+        most = "the most of the seven schemes" if best == "spherical_stacked" else f"`{best}` most ({conv(best)})"
+        out.append(f"- Stacked on the sphere (`spherical_stacked`: the bearing and (β, φ) of each point) the features "
+                   f"converged from {conv('spherical_stacked')} of the {n} random starts ({most}), "
+                   f"{conv('spherical_stacked', blind)} of the {len(blind)} unseen ones; median camera retreat over its runs "
+                   f"{_median([r.camera_retreat for r in gen if r.scheme == 'spherical_stacked']):.3f} m.")
     r = _find(rows, "rotation", "rz 150 deg", "spherical")
     c = _find(rows, "rotation", "rz 150 deg", "cartesian")
     if r is not None and c is not None:
