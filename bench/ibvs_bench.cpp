@@ -1,7 +1,8 @@
 // ibvs-bench: the control loop timed, part by part and whole, and run paced at
 // real-time rates. A plain main() program: no benchmark framework.
 //
-//   ibvs-bench                        components (N=4, each layout), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz,
+//   ibvs-bench                        components (N=4, each layout), tasks (moments, PBVS, 2.5-D, points +
+//                                     moments), growth (N=4..64), paced 60 Hz/1 kHz/10 kHz,
 //                                     600-frame simulated gantry episodes, robot (JointMapping, 6/7/16 joints),
 //                                     camera model / pixel step / estimators (N=4)
 //   ibvs-bench --paced 1000 --duration 10
@@ -13,6 +14,7 @@
 // (median, p99, max; the timer's own median cost is subtracted). Inputs cycle
 // through 64 different frames; results go through an optimisation barrier.
 #include "kernels.hpp"
+#include "task_floors.hpp"
 
 #include "ibvs/ibvs.hpp"
 #include "ibvs/sim/sim.hpp"
@@ -155,7 +157,7 @@ std::vector<std::string> split(const std::string& s) {
                "  --spin US          paced: sleep until US microseconds before each deadline, then spin (default 0)\n"
                "  --realtime         paced: try SCHED_FIFO 80 and mlockall (needs CAP_SYS_NICE)\n"
                "  --episodes K       simulated 600-frame gantry episodes per episode case (default 50)\n"
-               "  --sections S[,S..] components, growth, paced, episode, robot, camera (default all six)\n"
+               "  --sections S[,S..] components, tasks, growth, paced, episode, robot, camera (default all seven)\n"
                "  --json             one JSON line on stdout; the human table goes to stderr\n");
   std::exit(code);
 }
@@ -229,10 +231,10 @@ Options parse(int argc, char** argv) {
   if (o.warmup < 0) o.warmup = std::max(1000L, o.iterations / 10);
   if (o.sections.empty()) {
     if (o.rates_given && !o.layouts_given && !o.ns_given) o.sections = {"paced"};
-    else o.sections = {"components", "growth", "paced", "episode", "robot", "camera"};
+    else o.sections = {"components", "tasks", "growth", "paced", "episode", "robot", "camera"};
   }
   for (const auto& s : o.sections)
-    if (s != "components" && s != "growth" && s != "paced" && s != "episode" && s != "robot" && s != "camera") {
+    if (s != "components" && s != "tasks" && s != "growth" && s != "paced" && s != "episode" && s != "robot" && s != "camera") {
       std::fprintf(stderr, "ibvs-bench: unknown section '%s'\n", s.c_str());
       usage(2);
     }
@@ -705,6 +707,168 @@ void check_floor_agrees(const std::string& kind, const Options& o, const Frames&
   }
 }
 
+// ---------------------------------------------------------------- tasks ---
+/// Frames of the task benchmarks: an irregular planar quadrilateral (no symmetry, so alpha from
+/// the third-order moments is defined) seen from 64 random camera poses around the goal pose (the
+/// object 0.6 m in front, facing the camera): theta u up to ~0.5 rad, offsets of 5 cm, depths
+/// 0.45..0.75 m. Each kind's measurements (current, goal) and, for the mixed task, the corners'
+/// image points and depths.
+struct TaskFrames {
+  std::vector<Eigen::VectorXd> moments, moments_d, pbvs, pbvs_d, pbvs_object, pbvs_object_d, p25, p25_d;
+  std::vector<Points> uv, uvd;
+  std::vector<Eigen::VectorXd> z, zd;
+
+  TaskFrames() {
+    Eigen::Matrix<double, 3, 4> P;  // the object, in its own frame (plane z = 0)
+    P << -0.07, 0.08, 0.05, -0.05, -0.05, -0.04, 0.06, 0.04, 0.0, 0.0, 0.0, 0.0;
+    const Eigen::Vector3d reference(0.08, -0.04, 0.0);  // the 2.5-D reference point (a corner)
+    ibvs::Pose cdMo = ibvs::Pose::Identity();
+    cdMo(2, 3) = 0.6;
+    const auto camera_points = [&](const ibvs::Pose& T) {
+      Eigen::Matrix3Xd Q = (T.topLeftCorner<3, 3>() * P).colwise() + T.topRightCorner<3, 1>();
+      return Q;
+    };
+    using MF = ibvs::MomentsFeature;
+    const auto vec = [](const auto& a) { return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(a.data(), a.size())); };
+    const Eigen::Matrix3Xd Qd = camera_points(cdMo);
+    const auto goal = MF::project(Qd, MF::Source::region, 0.0, 0.6);
+    const double ad = MF::area(goal.data(), MF::Source::region);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    for (int k = 0; k < Frames::count; ++k) {
+      ibvs::Twist xi;
+      xi << 0.0, 0.0, 0.0, 0.25 * U(rng), 0.25 * U(rng), 0.5 * U(rng);
+      ibvs::Pose cMo = ibvs::se3_exp(xi);
+      cMo.topRightCorner<3, 1>() << 0.05 * U(rng), 0.05 * U(rng), 0.6 + 0.15 * U(rng);
+      const Eigen::Matrix3Xd Q = camera_points(cMo);
+      moments.push_back(vec(MF::project(Q, MF::Source::region, ad, 0.6)));
+      moments_d.push_back(vec(goal));
+      pbvs.push_back(vec(ibvs::PbvsFeature::measure(cMo, cdMo, ibvs::PbvsTarget::desired_camera)));
+      pbvs_d.push_back(vec(ibvs::PbvsFeature::measure(cdMo, cdMo, ibvs::PbvsTarget::desired_camera)));
+      pbvs_object.push_back(vec(ibvs::PbvsFeature::measure(cMo, cdMo, ibvs::PbvsTarget::object)));
+      pbvs_object_d.push_back(vec(ibvs::PbvsFeature::measure(cdMo, cdMo, ibvs::PbvsTarget::object)));
+      p25.push_back(vec(ibvs::Point25DFeature::measure(cMo, cdMo, reference)));
+      p25_d.push_back(vec(ibvs::Point25DFeature::measure(cdMo, cdMo, reference)));
+      uv.push_back(Q.topRows<2>().array().rowwise() / Q.row(2).array());
+      uvd.push_back(Qd.topRows<2>().array().rowwise() / Qd.row(2).array());
+      z.push_back(Q.row(2).transpose());
+      zd.push_back(Qd.row(2).transpose());
+    }
+  }
+};
+
+/// One task of the benchmark: its Task, the frames' measurements, and its floor.
+struct TaskCase {
+  const char* name;  // the layout column
+  ibvs::Task task;
+  const std::vector<Eigen::VectorXd>* m;
+  const std::vector<Eigen::VectorXd>* md;
+  std::function<Twist(int k, double lambda, double gain)> floor;
+};
+
+/// Servo::update of a task over the frames (default: damping 0 and diagnostics; tuned: damped,
+/// diagnostics off), the frames its solve takes the robust route, and the floor beside it.
+void bench_task(const TaskCase& c, const TaskFrames& tf, const Options& o) {
+  const ibvs::Task& task = c.task;
+  const int n = task.n_points(), m = task.rows();
+  const Eigen::VectorXd none;
+  const auto meas = [&](int k) -> const Eigen::VectorXd& { return c.m ? (*c.m)[static_cast<std::size_t>(k)] : none; };
+  const auto meas_d = [&](int k) -> const Eigen::VectorXd& { return c.md ? (*c.md)[static_cast<std::size_t>(k)] : none; };
+  const Points no_points(2, 0);
+  const Eigen::VectorXd no_depth(0);
+  const auto uv = [&](int k) -> const Points& { return n ? tf.uv[static_cast<std::size_t>(k)] : no_points; };
+  const auto uvd = [&](int k) -> const Points& { return n ? tf.uvd[static_cast<std::size_t>(k)] : no_points; };
+  const auto z = [&](int k) -> const Eigen::VectorXd& { return n ? tf.z[static_cast<std::size_t>(k)] : no_depth; };
+  const auto zd = [&](int k) -> const Eigen::VectorXd& { return n ? tf.zd[static_cast<std::size_t>(k)] : no_depth; };
+  // The floor must give Servo::update's twist (tuned: the same damped normal equations), or it is no floor.
+  {
+    ibvs::Servo servo(task, servo_options(o.gain, o.damping, false));
+    ibvs::ServoOutput out(task);
+    double worst = 0.0;
+    for (int k = 0; k < Frames::count; ++k) {
+      servo.validate(uv(k), z(k), uvd(k), zd(k), meas(k), meas_d(k));  // throws: a frame the task refuses
+      servo.update(uv(k), z(k), uvd(k), zd(k), meas(k), meas_d(k), out);
+      const Twist f = c.floor(k, o.damping, o.gain);
+      worst = std::max(worst, (f - out.velocity).norm() / out.velocity.norm());
+    }
+    if (!(worst < 1e-9)) {
+      std::fprintf(stderr, "ibvs-bench: the floor kernel disagrees with Servo::update for the %s task: %g\n", c.name,
+                   worst);
+      std::exit(1);
+    }
+  }
+  for (int tuned = 0; tuned < 2; ++tuned) {
+    const double damping = tuned ? o.damping : 0.0;
+    ibvs::Servo servo(task, servo_options(o.gain, damping, !tuned));
+    ibvs::ServoOutput out(task);
+    Result& r = add("tasks", tuned ? "Servo::update tuned (damped, no diag.)" : "Servo::update default (damping 0, diag.)",
+                    c.name, n, m, "auto", damping, !tuned);
+    ibvs_bench::SolveKernel<Eigen::Dynamic> w(m);
+    r.robust_frames = 0;
+    for (int k = 0; k < Frames::count; ++k) {
+      servo.update(uv(k), z(k), uvd(k), zd(k), meas(k), meas_d(k), out);
+      w.J.topRows(m) = out.jacobian;
+      r.robust_frames += w.route(damping) == ibvs::detail::Route::robust;
+    }
+    time_case(r, o, [&](long i) {
+      const int k = static_cast<int>(i & (Frames::count - 1));
+      servo.update(uv(k), z(k), uvd(k), zd(k), meas(k), meas_d(k), out);
+      keep(out.velocity);
+    });
+  }
+  Result& r = add("tasks", "Eigen floor: fixed-size LLT step", c.name, n, m, "LLT", o.damping, 0);
+  time_case(r, o, [&](long i) { keep(c.floor(static_cast<int>(i & (Frames::count - 1)), o.damping, o.gain)); });
+}
+
+void print_floor_ratio(std::FILE* f, const char* section, const std::string& layout, const std::string& label);
+
+/// The tasks of issue 21 beside their floors: image moments (Tahri & Chaumette's six features of
+/// a region), PBVS (both variants; the floor for camera to desired camera), 2.5-D, and the mixed
+/// task stacked(4) + moments.
+void bench_tasks(const Options& o, std::FILE* table) {
+  namespace T = ibvs_bench::tasks;
+  const TaskFrames tf;
+  std::vector<Eigen::Matrix<double, 2, 4>> uv, uvd;
+  std::vector<Eigen::Matrix<double, 4, 1>> z;
+  for (int k = 0; k < Frames::count; ++k) {
+    uv.emplace_back(tf.uv[static_cast<std::size_t>(k)]);
+    uvd.emplace_back(tf.uvd[static_cast<std::size_t>(k)]);
+    z.emplace_back(tf.z[static_cast<std::size_t>(k)]);
+  }
+  const auto at = [](const std::vector<Eigen::VectorXd>& v, int k) { return v[static_cast<std::size_t>(k)].data(); };
+  ibvs::Task moments, pbvs, pbvs_object, p25;
+  moments.add(ibvs::MomentsFeature());
+  pbvs.add(ibvs::PbvsFeature(ibvs::PbvsTarget::desired_camera));
+  pbvs_object.add(ibvs::PbvsFeature(ibvs::PbvsTarget::object));
+  p25.add(ibvs::Point25DFeature());
+  ibvs::Task mixed(Layout::stacked(4));
+  mixed.add(ibvs::MomentsFeature());
+  const TaskCase cases[] = {
+      {"moments", moments, &tf.moments, &tf.moments_d,
+       [&](int k, double l, double g) { return T::moments_step(at(tf.moments, k), at(tf.moments_d, k), l, g); }},
+      {"pbvs", pbvs, &tf.pbvs, &tf.pbvs_d,
+       [&](int k, double l, double g) { return T::pbvs_step(at(tf.pbvs, k), at(tf.pbvs_d, k), l, g); }},
+      {"pbvs(object)", pbvs_object, &tf.pbvs_object, &tf.pbvs_object_d,
+       [&](int k, double l, double g) {
+         return T::pbvs_object_step(at(tf.pbvs_object, k), at(tf.pbvs_object_d, k), l, g);
+       }},
+      {"2.5-D", p25, &tf.p25, &tf.p25_d,
+       [&](int k, double l, double g) { return T::point25d_step(at(tf.p25, k), at(tf.p25_d, k), l, g); }},
+      {"stacked+moments", mixed, &tf.moments, &tf.moments_d,
+       [&](int k, double l, double g) {
+         const auto s = static_cast<std::size_t>(k);
+         return T::mixed_step(uv[s], z[s], uvd[s], at(tf.moments, k), at(tf.moments_d, k), l, g);
+       }},
+  };
+  for (const TaskCase& c : cases) {
+    const std::size_t first = g_results.size();
+    bench_task(c, tf, o);
+    for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
+    print_floor_ratio(table, "tasks", c.name, c.name);
+    std::fflush(table);
+  }
+}
+
 // ---------------------------------------------------------------- paced ---
 struct Paced {
   double rate_hz = 0, duration_s = 0, spin_us = 0;
@@ -1079,6 +1243,8 @@ void print_row(std::FILE* f, const Result& r) {
   char what[48], robust[16] = "n/a";  // n/a: not a Servo::update row (print_header says so)
   if (r.section == "robot")
     std::snprintf(what, sizeof what, "%d joints, J 6x%d", r.n, r.n);
+  else if (r.section == "tasks")
+    std::snprintf(what, sizeof what, "%s %dx6", r.layout.c_str(), r.rows);
   else if (r.rows > 0)
     std::snprintf(what, sizeof what, "%s(%d) %dx6", r.layout.c_str(), r.n, r.rows);
   else if (r.layout == "-")
@@ -1114,6 +1280,20 @@ void print_visp_ratio(std::FILE* f, const std::string& kind) {
                  kind.c_str(), svd->median_us / def->median_us);
 }
 
+/// Servo::update over its floor, default and tuned (medians of the same run), for one layout or task.
+void print_floor_ratio(std::FILE* f, const char* section, const std::string& layout, const std::string& label) {
+  const Result *def = nullptr, *tuned = nullptr, *floor = nullptr;
+  for (const Result& r : g_results)
+    if (r.section == section && r.layout == layout && (r.section == std::string("tasks") || r.n == 4)) {
+      if (r.name == "Servo::update default (damping 0, diag.)") def = &r;
+      if (r.name == "Servo::update tuned (damped, no diag.)") tuned = &r;
+      if (r.name == "Eigen floor: fixed-size LLT step") floor = &r;
+    }
+  if (def && tuned && floor && floor->median_us > 0)
+    std::fprintf(f, "  Servo::update / floor (medians), %s: default %.2fx, tuned %.2fx\n", label.c_str(),
+                 def->median_us / floor->median_us, tuned->median_us / floor->median_us);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1144,9 +1324,17 @@ int main(int argc, char** argv) {
         const std::size_t first = g_results.size();
         bench_components(kind, n, o);
         for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
-        if (n == 4) print_visp_ratio(table, kind);
+        if (n == 4) {
+          print_visp_ratio(table, kind);
+          print_floor_ratio(table, "components", kind, kind + "(4)");
+        }
         std::fflush(table);
       }
+  }
+  if (has(o.sections, "tasks")) {
+    print_header(table, "Tasks of feature blocks (issue 21): Servo::update beside a fixed-size Eigen floor of the same "
+                        "features and size");
+    bench_tasks(o, table);
   }
   if (has(o.sections, "growth")) {
     const std::vector<int> ns = o.ns_given ? o.ns : std::vector<int>{4, 8, 16, 32, 64};

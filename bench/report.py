@@ -64,7 +64,7 @@ def cpp_tables(runs: list[dict]) -> str:
     lines = [(f"C++ `ibvs-bench`: median of {len(timed)} runs, {head['iterations']} iterations per case, "
               f"{head['cpu']}"), ""]
     cases = _group(runs, "cases", ("section", "name", "layout", "n", "rows"))
-    for section in ("components", "growth"):
+    for section in ("components", "tasks", "growth"):
         rows = [(k, v) for k, v in cases.items() if k[0] == section]
         if not rows:
             continue
@@ -72,7 +72,8 @@ def cpp_tables(runs: list[dict]) -> str:
                   "|---|---|---:|---:|---:|---:|---:|"]
         first = len(lines)
         for (sec, name, layout, n, m), v in rows:
-            lines.append(f"| {name} | {layout}({n}) {m}×6 | {_cell(_median(v, 'median_us'), '.3f')} | "
+            what = f"{layout} {m}×6" if sec == "tasks" else f"{layout}({n}) {m}×6"
+            lines.append(f"| {name} | {what} | {_cell(_median(v, 'median_us'), '.3f')} | "
                          f"{_cell(_median(v, 'p99_us'), '.3f')} | {_cell(_median(v, 'max_us'), '.1f')} | "
                          f"{_cell(_median(v, 'steps_per_s'), ',.0f')} | {_cell(_max(v, 'allocs_per_call'), 'g')} |")
         _with_reason(lines, first).append("")

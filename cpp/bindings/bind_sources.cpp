@@ -62,7 +62,9 @@ its z = 0 plane.)")
 
 PbvsSource(target="desired_camera"): PbvsFeature.measure(pose, goal pose, target) with the camera <-
 target pose of the depth mode (depth="exact": the true pose; "pose": ibvs.PlanarPose's estimate from
-the image) and the goal's true pose. Feeds an ibvs.PbvsFeature of the same target.)")
+the image) against the goal's pose as the same depth mode knew it at the goal (exact: the true one;
+"pose": the estimate from the goal's image, teach by showing). Feeds an ibvs.PbvsFeature of the same
+target.)")
       .def(py::init([](py::handle target) { return std::make_shared<sim::PbvsSource>(ibvs::py_pose::target_arg(target)); }),
            py::arg("target") = "desired_camera")
       .def_property_readonly("target", [](const sim::PbvsSource& x) { return ibvs::py_pose::target_name(x.target()); },
@@ -78,7 +80,8 @@ the image) and the goal's true pose. Feeds an ibvs.PbvsFeature of the same targe
   py::class_<sim::Point25DSource, sim::FeatureSource, std::shared_ptr<sim::Point25DSource>>(s, "Point25DSource", R"(2.5-D (ibvs.Point25DFeature) with target point i as the reference point.
 
 Point25DSource(i=0): (x, y) the controller's point i, Z the depth the depth mode gives it, theta u of
-c*Rc from the depth mode's pose against the goal's true pose.)")
+c*Rc from the depth mode's pose against the goal's as the same mode knew it (exact: the true one;
+"pose": the estimate from the goal's image), and Z* the depth it gave point i at the goal.)")
       .def(py::init([](py::handle i) { return std::make_shared<sim::Point25DSource>(int_in(i, "i", 0, max_points)); }),
            py::arg("i") = 0)
       .def_property_readonly("i", &sim::Point25DSource::i, "The reference point (a target point's index).")
@@ -233,8 +236,10 @@ image is not an ellipse (its plane seen edge-on, part of it behind the camera).)
 FunctionSource(feature, measure): feeds Task blocks of the kind of `feature` (an ibvs.Feature: the
 same class and size). Each frame the episode calls measure(frame, cMo, depth_pose, goal, uv, depth)
 with frame (-1: the goal, then 0, 1, ...), cMo the true camera <- target pose (4, 4) of the frame the
-controller sees, depth_pose the pose the depth mode gives (NaN: unknown), goal the goal's true
-camera <- target pose, uv (N, 2) the controller's points (normalised) and depth (N,) their depths;
+controller sees, depth_pose the pose the depth mode gives (NaN: unknown), goal the goal's
+camera <- target pose as the depth mode knew it at the goal (exact, desired: the true one; "pose":
+the estimate from the goal's image), uv (N, 2) the controller's points (normalised) and depth (N,)
+their depths;
 it returns the block's measurement (feature.size values) or None (cannot measure: the episode ends
 as lost_feature). An exception it raises ends the episode and is raised by ibvs.sim.run.
 ibvs.vision.blob_source is one (blob moments and ellipses from rendered images).)")

@@ -184,12 +184,9 @@ struct Work {
 
   // Rows after the points: each feature block's error and interaction matrix, from the current
   // measurement aligned to the goal's (a copy in `aligned`); `spare` holds the goal's rows for
-  // InteractionMatrix::mean. With `angles` (the consistent wrap), each block's angle rows about
-  // the optical axis (Feature::axis_angle_rows) are recorded there; returns whether there are any.
-  // Then (weigh) the task's weights and degrees of freedom.
-  bool assemble_features(const Task& task, InteractionMatrix which, const double* m, const double* md,
-                         double* aligned, MatrixX6& spare, std::uint64_t* angles) noexcept {
-    std::uint64_t any = 0;
+  // InteractionMatrix::mean. Then (weigh) the task's weights and degrees of freedom.
+  void assemble_features(const Task& task, InteractionMatrix which, const double* m, const double* md,
+                         double* aligned, MatrixX6& spare) noexcept {
     for (int k = 0; k < task.n_features(); ++k) {
       const Feature& f = task.feature(k);
       const int row = task.row(k), off = task.offset(k), r = f.rows();
@@ -197,7 +194,6 @@ struct Work {
       std::copy(m + off, m + off + f.size(), mc);
       f.align(mc, md + off);
       f.error(mc, md + off, e.data() + row);
-      if (angles) any |= angles[k] = f.axis_angle_rows(mc, md + off);
       auto rows = J.middleRows(row, r);
       switch (which) {
         case InteractionMatrix::current: f.interaction(mc, rows); break;
@@ -209,11 +205,19 @@ struct Work {
           break;
       }
     }
-    return any != 0;
   }
 
-  // The feature blocks' angle rows (recorded by assemble_features) in the consistent wrap: their
-  // differences (error() gives them in (-pi, pi]) added to the points' resultant ...
+  // The consistent wrap of the feature blocks' angle rows about the optical axis: each block's
+  // (Feature::axis_angle_rows of its aligned measurement, recorded in `angles`; returns whether
+  // there are any), their differences (error() gives them in (-pi, pi]) added to the points'
+  // resultant ...
+  static bool record_feature_angles(const Task& task, const double* aligned, const double* md,
+                                    std::uint64_t* angles) noexcept {
+    std::uint64_t any = 0;
+    for (int k = 0; k < task.n_features(); ++k)
+      any |= angles[k] = task.feature(k).axis_angle_rows(aligned + task.offset(k), md + task.offset(k));
+    return any != 0;
+  }
   void add_feature_angles(const Task& task, const std::uint64_t* angles, AngleResultant& sum) const noexcept {
     for (int k = 0; k < task.n_features(); ++k)
       for (int i = 0; i < std::min(task.feature(k).rows(), 64); ++i)
@@ -227,6 +231,19 @@ struct Work {
     for (int k = 0; k < task.n_features(); ++k)
       for (int i = 0; i < std::min(task.feature(k).rows(), 64); ++i)
         if (angles[k] >> i & 1U) e(task.row(k) + i) = wrap_about(e(task.row(k) + i), centre);
+  }
+  // assemble_features() for InteractionMatrix::current with each block's check folded in
+  // (Feature::evaluate: the same rows, bit for bit, each measurement evaluated once where a kind
+  // can); false, with nothing more computed, when a measurement is refused.
+  bool evaluate_features(const Task& task, const double* m, const double* md, double* aligned) noexcept {
+    for (int k = 0; k < task.n_features(); ++k) {
+      const Feature& f = task.feature(k);
+      const int row = task.row(k), off = task.offset(k);
+      double* mc = aligned + off;
+      std::copy(m + off, m + off + f.size(), mc);
+      if (f.evaluate(mc, md + off, e.data() + row, J.middleRows(row, f.rows()))) return false;
+    }
+    return true;
   }
   void weigh(const Task& task) noexcept {
     const std::vector<double>& pw = task.point_weights();
@@ -555,12 +572,26 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
   const Eigen::Index m = task_.rows();
   const bool uses_zd = options_.jacobian != InteractionMatrix::current;
   Kernel& kernel = *kernel_;
+  const bool plain = task_.points_only();
+  // With the current interaction matrix the feature blocks are checked and evaluated in one
+  // pass (Feature::evaluate), first, so that a refused frame changes no state.
+  const bool fused = !plain && !uses_zd;
+  const Eigen::Index size = task_.measurement_size();
   // Exactly what validate() refuses (tests/cpp/test_fuzz.cpp checks that the two agree).
-  const bool ok = uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
-                  out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
-                  detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
-                  (!uses_zd || detail::valid_depths(depth_desired)) && valid_measurements(task_, measurements) &&
-                  valid_measurements(task_, measurements_desired);
+  const bool ok =
+      uv.cols() == n && uv_desired.cols() == n && depth.size() == n && depth_desired.size() == n &&
+      out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
+      detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
+      (!uses_zd || detail::valid_depths(depth_desired)) &&
+      (fused ? measurements.size() == size && measurements_desired.size() == size
+             : valid_measurements(task_, measurements) && valid_measurements(task_, measurements_desired)) &&
+      (!fused || std::visit(
+                     [&](auto& w) noexcept {
+                       if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) return false;
+                       else return w.evaluate_features(task_, measurements.data(), measurements_desired.data(),
+                                                       kernel.aligned.data());
+                     },
+                     kernel.work));
   if (!ok) {
     smoother_.note(Twist::Zero());  // the refusal's zero twist: a later law starts from rest
     return detail::refuse(out);
@@ -573,14 +604,15 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
           return detail::refuse(out);  // unreachable: the constructor always builds a kernel
         } else {
-        const bool plain = task_.points_only();
         const bool consistent = o.angle_wrap == AngleWrap::consistent;
-        // The feature blocks first: their angle rows about the axis join the consistent wrap.
-        bool feature_angles = false;
-        if (!plain)
-          feature_angles = w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
-                                               kernel.aligned.data(), kernel.spare,
-                                               consistent ? kernel.angles.data() : nullptr);
+        // The feature blocks before the points (when not fused: evaluated already), and their
+        // angle rows about the axis, which join the consistent wrap.
+        if (!plain && !fused)
+          w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
+                              kernel.aligned.data(), kernel.spare);
+        const bool feature_angles = !plain && consistent &&
+                                    w.record_feature_angles(task_, kernel.aligned.data(), measurements_desired.data(),
+                                                            kernel.angles.data());
         // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
         double centre = std::numeric_limits<double>::quiet_NaN();
         if (consistent) {
@@ -600,9 +632,15 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
           w.key ^= drop_lost(layout, *valid, w.J, w.e);
           enough = 2 * (n - lost) + (m - task_.point_rows()) >= task_.n_dof();
         }
-        out.error = w.e.head(m);
+        constexpr int rows = std::decay_t<decltype(w)>::Jac::RowsAtCompileTime;
+        if constexpr (rows != Eigen::Dynamic) {  // the fixed point kernels: fixed-size copies (m = rows)
+          Eigen::Map<Eigen::Matrix<double, rows, 1>>(out.error.data()) = w.e;
+          Eigen::Map<Eigen::Matrix<double, rows, 6>>(out.jacobian.data()) = w.J;
+        } else {
+          out.error = w.e.head(m);
+          out.jacobian = w.J.topRows(m);
+        }
         out.error_norm = out.error.norm();
-        out.jacobian = w.J.topRows(m);
         const AdaptiveGain& ag = o.adaptive_gain;
         out.gain = ag.enabled() ? ag(out.error_norm) : o.gain;
         out.law_switched = out.acceleration_limited = false;

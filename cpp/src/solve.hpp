@@ -84,6 +84,15 @@ inline double normal_route_limit(double lambda) noexcept { return lambda > 0.0 ?
 
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 
+// Fully unrolled loops of fixed trip counts (GCC and Clang): the same operations in the same
+// order, so the same results bit for bit, without the loop overhead of the triangular loops
+// (measured with callgrind: a third of Normal::factor's instructions).
+#if defined(__GNUC__) || defined(__clang__)
+#define IBVS_UNROLL _Pragma("GCC unroll 8")
+#else
+#define IBVS_UNROLL
+#endif
+
 /// Cholesky factorisation of a 6x6 symmetric matrix (lower triangle read), the
 /// inverse of its factor, and the condition bound tr(N) tr(N^-1). Hand-written
 /// (fixed size, fully unrolled by the compiler, no pivoting).
@@ -96,23 +105,30 @@ struct Normal {
   /// the bound is not finite; the upper triangles of L and Li stay zero.
   bool factor(const Matrix6& N) noexcept {
     bound = std::numeric_limits<double>::infinity();
+    IBVS_UNROLL
     for (int j = 0; j < 6; ++j) {
       double d = N(j, j);
+      IBVS_UNROLL
       for (int k = 0; k < j; ++k) d -= L(j, k) * L(j, k);
       if (!(d > 0.0)) return false;
       const double ljj = std::sqrt(d), inv = 1.0 / ljj;
       L(j, j) = ljj;
       Li(j, j) = inv;
+      IBVS_UNROLL
       for (int i = j + 1; i < 6; ++i) {
         double s = N(i, j);
+        IBVS_UNROLL
         for (int k = 0; k < j; ++k) s -= L(i, k) * L(j, k);
         L(i, j) = s * inv;
       }
     }
     // L^-1 column by column (forward substitution of the unit vectors).
+    IBVS_UNROLL
     for (int j = 0; j < 6; ++j)
+      IBVS_UNROLL
       for (int i = j + 1; i < 6; ++i) {
         double s = 0.0;
+        IBVS_UNROLL
         for (int k = j; k < i; ++k) s -= L(i, k) * Li(k, j);
         Li(i, j) = s * Li(i, i);
       }

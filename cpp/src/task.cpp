@@ -20,6 +20,16 @@ void Feature::error(const double* m, const double* m_desired, double* e) const n
   for (int i = 0; i < rows(); ++i) e[i] = s[i] - sd[i];
 }
 
+const char* Feature::evaluate(double* m, const double* m_desired, double* e, Eigen::Ref<MatrixX6> L) const noexcept {
+  int entry = -1;
+  if (const char* why = check(m, entry)) return why;
+  if (const char* why = check(m_desired, entry)) return why;
+  align(m, m_desired);
+  error(m, m_desired, e);
+  interaction(m, L);
+  return nullptr;
+}
+
 void Feature::validate(const double* m, const std::string& name) const {
   int entry = -1;
   if (const char* why = check(m, entry))

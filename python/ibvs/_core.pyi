@@ -970,7 +970,8 @@ class sim:
             """'region' or 'points'."""
 
     class PbvsSource(FeatureSource):
-        """PBVS (ibvs.PbvsFeature) on the pose the depth mode gives against the goal's true pose."""
+        """PBVS (ibvs.PbvsFeature) on the pose the depth mode gives against the goal's pose as the same mode
+        knew it at the goal (exact: the true one; "pose": the estimate from the goal's image)."""
 
         def __init__(self, target: str = "desired_camera") -> None: ...
         @property
@@ -978,7 +979,8 @@ class sim:
             """'desired_camera' or 'object'."""
 
     class Point25DSource(FeatureSource):
-        """2.5-D (ibvs.Point25DFeature) with target point i as the reference point."""
+        """2.5-D (ibvs.Point25DFeature) with target point i as the reference point; its goal (c*R, Z*) as the
+        depth mode knew it at the goal (exact: the true one; "pose": estimated from the goal's image)."""
 
         def __init__(self, i: int = 0) -> None: ...
         @property

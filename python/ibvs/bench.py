@@ -3,7 +3,9 @@
 ``python -m ibvs.bench [--iterations N] [--n N] [--json]``
 
 For the Cartesian (2N x 6), polar (2N x 6) and stacked hybrid (4N x 6)
-layouts, ``ibvs.Servo.update`` (C++/Eigen through pybind11) is timed as built
+layouts, and for the tasks of feature blocks of ibvs-bench's tasks section (image moments, PBVS in
+both variants, 2.5-D, stacked(4) + moments: default and tuned, their twist checked against numpy's
+damped normal equations on the servo's own J and e), ``ibvs.Servo.update`` (C++/Eigen through pybind11) is timed as built
 by default (``ibvs.Servo(layout, gain)``: damping 0, diagnostics on) and tuned
 (damping 0.01, diagnostics off), with the ratio default / tuned, and one damped
 step v = -gain (J^T J + lambda^2 I)^-1 J^T e in pure vectorised numpy in the
@@ -33,7 +35,7 @@ import numpy as np
 
 import ibvs
 
-__all__ = ["main", "make_frames", "numpy_step"]
+__all__ = ["main", "make_frames", "make_task_frames", "numpy_step"]
 
 LAYOUTS = ("cartesian", "polar", "stacked")
 FRAMES = 64
@@ -113,6 +115,68 @@ def make_frames(n: int, count: int = FRAMES, seed: int = 7) -> list[tuple[np.nda
         z = np.ascontiguousarray(1.0 + 0.3 * rng.uniform(-1, 1, n))
         frames.append((cur, z, desired.copy()))
     return frames
+
+
+TASKS = ("moments", "pbvs", "pbvs(object)", "2.5-D", "stacked+moments")
+
+
+def make_task_frames(count: int = FRAMES, seed: int = 11) -> list[tuple[str, ibvs.Task, list[tuple]]]:
+    """The tasks of ibvs-bench's tasks section, each with `count` update() argument tuples: an irregular
+    planar quadrilateral (third-order alpha defined) seen from random poses around the goal (0.6 m in
+    front), theta u up to ~0.5 rad, offsets of 5 cm, depths 0.45..0.75 m. Tasks: image moments
+    (Tahri & Chaumette's six), PBVS (camera to desired camera; camera to object), 2.5-D (a corner),
+    and stacked(4) on the corners + moments."""
+    rng = np.random.default_rng(seed)
+    obj = np.array([[-0.07, -0.05, 0.0], [0.08, -0.04, 0.0], [0.05, 0.06, 0.0], [-0.05, 0.04, 0.0]])
+    goal = np.eye(4)
+    goal[2, 3] = 0.6
+
+    def camera_points(pose: np.ndarray) -> np.ndarray:
+        return obj @ pose[:3, :3].T + pose[:3, 3]
+
+    qd = camera_points(goal)
+    m_goal = ibvs.MomentsFeature.project(qd, "region", 0.0, 0.6)
+    area = ibvs.MomentsFeature.area(m_goal)
+    uvd, zd = np.ascontiguousarray(qd[:, :2] / qd[:, 2:]), np.ascontiguousarray(qd[:, 2])
+    tasks = {name: ibvs.Task() for name in TASKS[:4]}
+    tasks["moments"].add(ibvs.MomentsFeature())
+    tasks["pbvs"].add(ibvs.PbvsFeature("desired_camera"))
+    tasks["pbvs(object)"].add(ibvs.PbvsFeature("object"))
+    tasks["2.5-D"].add(ibvs.Point25DFeature())
+    tasks["stacked+moments"] = ibvs.Task(ibvs.Layout.stacked(4)).add(ibvs.MomentsFeature())
+    args: dict[str, list[tuple]] = {name: [] for name in TASKS}
+    none = np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros(0)
+    for _ in range(count):
+        pose = ibvs.se3_exp(np.concatenate([np.zeros(3), rng.uniform(-1, 1, 3) * (0.25, 0.25, 0.5)]))
+        pose[:3, 3] = 0.05 * rng.uniform(-1, 1), 0.05 * rng.uniform(-1, 1), 0.6 + 0.15 * rng.uniform(-1, 1)
+        q = camera_points(pose)
+        m = ibvs.MomentsFeature.project(q, "region", area, 0.6)
+        args["moments"].append((*none, m, m_goal))
+        for name, target in (("pbvs", "desired_camera"), ("pbvs(object)", "object")):
+            args[name].append((*none, ibvs.PbvsFeature.measure(pose, goal, target),
+                               ibvs.PbvsFeature.measure(goal, goal, target)))
+        args["2.5-D"].append((*none, ibvs.Point25DFeature.measure(pose, goal, obj[1]),
+                              ibvs.Point25DFeature.measure(goal, goal, obj[1])))
+        uv, z = np.ascontiguousarray(q[:, :2] / q[:, 2:]), np.ascontiguousarray(q[:, 2])
+        args["stacked+moments"].append((uv, z, uvd, zd, m, m_goal))
+    return [(name, tasks[name], args[name]) for name in TASKS]
+
+
+def check_task_agreement(task: ibvs.Task, args: list[tuple], damping: float, gain: float) -> float:
+    """Largest relative difference between ibvs.Servo's twist for a task and numpy's damped normal
+    equations on the same J and e (the servo's own ServoResult.jacobian / .error); raises if > 1e-9."""
+    servo = ibvs.Servo(task, gain=gain, damping=damping, diagnostics=False)
+    worst = 0.0
+    for a in args:
+        r = servo.update(*a)
+        J, e = r.jacobian, r.error
+        A = J.T @ J
+        A.flat[::7] += damping * damping
+        b = -gain * np.linalg.solve(A, J.T @ e)
+        worst = max(worst, float(np.linalg.norm(r.velocity - b) / np.linalg.norm(b)))
+    if not worst <= 1e-9:
+        raise RuntimeError(f"ibvs.Servo and numpy disagree for a task ({task}): relative difference {worst:.3g}")
+    return worst
 
 
 def _layout(kind: str, n: int) -> ibvs.Layout:
@@ -201,6 +265,17 @@ def run(iterations: int = 20000, n: int = 4, damping: float = 0.01, gain: float 
         ratio = ref["median_us"] / fast["median_us"] if fast["median_us"] > 0 else math.inf
         fast["numpy_ratio"] = ref["numpy_ratio"] = ratio
 
+    for name, task, args in make_task_frames():
+        difference = check_task_agreement(task, args, damping, gain)
+        default = ibvs.Servo(task, gain=gain).update  # damping 0, diagnostics on
+        tuned = ibvs.Servo(task, gain=gain, damping=damping, diagnostics=False).update
+        slow = add("ibvs Servo.update default (damping 0, diagnostics)", name, task.rows,
+                   lambda k, upd=default, args=args: upd(*args[k]), implementation="ibvs", task=True)
+        fast = add("ibvs Servo.update tuned (damped, no diagnostics)", name, task.rows,
+                   lambda k, upd=tuned, args=args: upd(*args[k]),
+                   implementation="ibvs", task=True, twist_difference=difference)
+        slow["default_over_tuned"] = slow["median_us"] / fast["median_us"] if fast["median_us"] > 0 else math.inf
+
     # Binding baselines: what any call costs, and an array in / array out call.
     layout = _layout("stacked", n)
     add("baseline: Layout.rows (property)", "stacked", layout.rows, lambda k: layout.rows, implementation="binding")
@@ -241,19 +316,19 @@ def format_table(res: dict[str, Any]) -> str:
         (f"N = {res['cases'][0]['n']} points, damping {res['damping']}, gain {res['gain']}, "
          f"{res['iterations']} iterations; times per call in microseconds"),
         "",
-        f"  {'case':<52} {'layout':<16} {'median':>8} {'p99':>8} {'max':>8} {'calls/s':>10} {'ratio':>16}",
+        f"  {'case':<52} {'layout':<20} {'median':>8} {'p99':>8} {'max':>8} {'calls/s':>10} {'ratio':>16}",
     ]
     for c in res["cases"]:
-        what = f"{c['layout']}({c['n']}) {c['rows']}x6"
-        lines.append(f"  {c['name']:<52} {what:<16} {_cell(c['median_us'], 8, 2)} {_cell(c['p99_us'], 8, 2)} "
+        what = f"{c['layout']} {c['rows']}x6" if c.get("task") else f"{c['layout']}({c['n']}) {c['rows']}x6"
+        lines.append(f"  {c['name']:<52} {what:<20} {_cell(c['median_us'], 8, 2)} {_cell(c['p99_us'], 8, 2)} "
                      f"{_cell(c['max_us'], 8, 1)} {_cell(c['calls_per_s'], 10, 0)} {_ratio(c):>16}")
     lines.append(f"  {_NO_RATIO}")
     return "\n".join(lines)
 
 
 # Why a row's ratio is n/a: the table compares two pairs of rows only.
-_NO_RATIO = ("ratio n/a: only the damped ibvs step (numpy/ibvs: numpy's time over it) and the default step (/tuned: "
-            "over the damped one) have a counterpart to compare with")
+_NO_RATIO = ("ratio n/a: only the damped ibvs step of a point layout (numpy/ibvs: numpy's time over it) and the default "
+            "step (/tuned: over the damped one) have a counterpart to compare with")
 
 
 def _ratio(c: dict[str, Any]) -> str:

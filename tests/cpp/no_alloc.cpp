@@ -170,7 +170,8 @@ void feature_episode_allocates_nothing() {
 }
 
 // Episodes of moments, PBVS and 2.5-D tasks (their simulator sources, every depth mode that moves
-// them) on an asymmetric planar quadrilateral: nothing allocated per frame.
+// them; in the pose and estimated modes their goal is estimated from the goal's image when run()
+// teaches it) on an asymmetric planar quadrilateral: nothing allocated in run().
 void pose_moments_episode_allocates_nothing() {
   using namespace sim_cases;
   Eigen::Matrix3Xd quad(3, 4);

@@ -696,8 +696,9 @@ void fuzz_task(Bytes& b) {
 
 // Feature sources: a LineSource (SegmentSource, EllipseSource) of any indices (centre, normal,
 // radius) on a target of any points is accepted or refused (std::invalid_argument); from any poses
-// and points, measure() answers false or finite values; a short episode of a line task from any start either throws std::invalid_argument or
-// ends with finite recorded errors.
+// and points, measure() answers false or finite values; a short episode of a line task (or a
+// PBVS + 2.5-D task, any depth mode and depth_scale: the goal estimated from its image) from any
+// start either throws std::invalid_argument or ends with finite recorded errors.
 void fuzz_sources(Bytes& b) {
   using namespace ibvs::sim;
   const int n = b.small(1, 5);
@@ -781,8 +782,17 @@ void fuzz_sources(Bytes& b) {
   EpisodeOptions o;
   o.duration = 0.05;
   o.depth = static_cast<DepthMode>(b.small(0, 3));
+  o.depth_scale = b.byte() < 192 ? 1.0 : 0.5 + b.byte() / 128.0;
   t.pose = Pose::Identity();
   t.pose(2, 3) = 1.0 + b.byte() / 64.0;
+  if (b.byte() < 96) {  // PBVS and 2.5-D instead: their goal as the depth mode knows it (teach by showing)
+    const PbvsTarget to = b.byte() < 128 ? PbvsTarget::desired_camera : PbvsTarget::object;
+    Target tp(t.points, t.pose);
+    tp.add(PbvsSource(to)).add(Point25DSource(0));
+    task = Task();
+    task.add(PbvsFeature(to)).add(Point25DFeature());
+    t = tp;
+  }
   try {
     Episode e(Servo(task), CameraModel::normalized(0.5), t, o);
     const EpisodeResult& r = e.run(pose(xi), Pose::Identity());

@@ -3,13 +3,15 @@
 // 7-joint robot; the simulator's line measurements are LineFeature::measure of
 // the controller's points with the plane of the true (or the depth mode's)
 // pose, computed here independently; a user-defined source plugs in; a source
-// that cannot measure ends the episode as lost_feature; bad set-ups are refused.
+// that cannot measure ends the episode as lost_feature; bad set-ups are refused;
+// the sources stage's goal is the goal as the depth mode knows it (teach by showing).
 #include "check.hpp"
 #include "projected_line_source.hpp"
 #include "sim_cases.hpp"
 #include "sim/stages/sources.hpp"
 
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/pose.hpp"
 
 #include <Eigen/Geometry>
 
@@ -257,6 +259,65 @@ void fit_pose_recovers() {
   CHECK(!stages::fit_pose(line, line, F));
 }
 
+
+// The sources stage's goal (SourceFrame::goal) is the goal as the depth mode knows it: exact and
+// desired the true one whatever the depth stage estimated; pose the depth stage's estimate of the
+// goal's image, translation times depth_scale; estimated the fit to the goal's image at the goal
+// depths given. A frame whose depth pose equals that goal measures PBVS zero (its equilibrium),
+// and 2.5-D measures Z = Z* at the goal's image; the pose mode without a goal estimate is refused.
+void sources_aim_at_the_goal_as_known() {
+  Target t = Target::square(0.2, make_pose(0.02, -0.01, 1.0, 0.2, -0.1, 0.3));
+  t.add(PbvsSource(PbvsTarget::desired_camera)).add(Point25DSource(2));
+  Task task;
+  task.add(PbvsFeature(PbvsTarget::desired_camera)).add(Point25DFeature());
+  const Pose goal = make_pose(0.05, 0.03, -0.1, -0.05, 0.1, 0.2);  // world <- camera
+  const Pose true_cMo = se3_inverse(goal) * t.pose;
+  // the goal's image and depths
+  Points uv(2, 4);
+  Eigen::VectorXd z(4);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d p = true_cMo.topLeftCorner<3, 3>() * t.points.col(i) + true_cMo.topRightCorner<3, 1>();
+    uv.col(i) << p(0) / p(2), p(1) / p(2);
+    z(i) = p(2);
+  }
+  const Pose wrong = make_pose(0.1, 0.0, 0.2, 0.0, 0.05, 0.0) * true_cMo;  // an estimate of the goal, off
+  const Pose T_cw = se3_inverse(goal);
+  for (DepthMode mode : {DepthMode::exact, DepthMode::desired, DepthMode::pose, DepthMode::estimated}) {
+    EpisodeOptions o;
+    o.depth = mode;
+    o.depth_scale = 1.5;
+    stages::Sources s(t, &task, o);
+    const bool given = mode == DepthMode::exact || mode == DepthMode::desired;  // the goal given, not estimated
+    const Eigen::VectorXd zg = 1.5 * z;  // the goal depths the depth stage gave (pose, estimated: scaled)
+    s.teach(goal, uv, given ? z : zg, &wrong);
+    Pose known = true_cMo;
+    if (mode == DepthMode::pose) {
+      known = wrong;
+      known.topRightCorner<3, 1>() *= 1.5;
+    } else if (mode == DepthMode::estimated) {  // the true pose with its translation times 1.5
+      known.topRightCorner<3, 1>() *= 1.5;
+    }
+    // at the goal: PBVS zero, 2.5-D's Z* the goal depth given
+    for (int r = 0; r < 6; ++r) CHECK_NEAR(s.desired()(r), 0.0, 1e-9);
+    CHECK_NEAR(s.desired()(8), given ? z(2) : 1.5 * z(2), 1e-12);
+    // a frame seeing the goal's image: exact and desired take the true pose times depth_scale as
+    // its depth pose, pose and estimated the same estimate as at the goal (PBVS zero)
+    CHECK(s.measure(3, T_cw, &wrong, uv, given ? z : zg) < 0);
+    const Eigen::VectorXd m = s.measurements();
+    Pose scaled = true_cMo;
+    scaled.topRightCorner<3, 1>() *= 1.5;
+    const auto want = PbvsFeature::measure(given ? scaled : known, known, PbvsTarget::desired_camera);
+    for (int r = 0; r < 6; ++r)
+      ibvs_test::report(std::abs(m(r) - want[static_cast<std::size_t>(r)]) < 1e-9,
+                        "PBVS measured against the goal as the depth mode knows it", __FILE__, __LINE__,
+                        std::string(to_string(mode)) + " entry " + std::to_string(r) + ": " + std::to_string(m(r)));
+    if (mode == DepthMode::pose) {
+      stages::Sources refused(t, &task, o);
+      CHECK_THROWS(refused.teach(goal, uv, zg, nullptr));  // the goal's image gave no estimate
+    }
+  }
+}
+
 }  // namespace
 
 void run_tests() {
@@ -265,4 +326,5 @@ void run_tests() {
   user_defined_sources();
   bad_set_ups_refused();
   fit_pose_recovers();
+  sources_aim_at_the_goal_as_known();
 }

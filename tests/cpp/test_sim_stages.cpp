@@ -1,7 +1,8 @@
 // The episode loop's stages (cpp/src/sim/stages/), each on its own, against
 // values computed here independently of the stage: measure (projection by hand,
 // the latency ring, every fact it reports, teach by showing), estimate depths
-// (each mode against the true depths, the odometry against se3_inverse),
+// (each mode against the true depths, what each knows at the goal, the
+// odometry against se3_inverse),
 // control (the servo unchanged, the boundary potential's Tz against a central
 // difference of the potential written out here), actuate (free flight against
 // the closed-form motion of a constant twist and an RK4 integration; a
@@ -257,6 +258,34 @@ void depth_modes() {
     bumpy.points(2, 1) = 0.01;
     CHECK_THROWS(st::Depths refused(depth_options(DepthMode::pose), cam, bumpy.points));
   }
+}
+
+// teach(): what each depth mode knows at the goal from its image: exact and desired z* as given
+// (no pose estimate), pose ibvs::PlanarPose's estimate of the goal's image (the true pose and
+// depths for an exact image, depths times depth_scale; none from a degenerate image, z* kept),
+// estimated its prior depth_scale z*.
+void depth_modes_teach() {
+  const CameraModel cam = CameraModel::normalized(1.0);
+  const Target t = Target::square(0.2, make_pose(0.02, -0.01, 0.8, 0.2, -0.1, 0.3));
+  const Pose goal = make_pose(0.05, 0.03, -0.1, -0.05, 0.1, 0.2);
+  Eigen::RowVectorXd z_true;
+  const Points uv = image_of(t, goal, &z_true);
+  const Eigen::VectorXd z_star = z_true.transpose();
+  for (DepthMode mode : {DepthMode::exact, DepthMode::desired, DepthMode::pose, DepthMode::estimated}) {
+    st::Depths d(depth_options(mode, 1.25), cam, t.points);
+    d.aim(z_star);
+    d.teach(uv);
+    const double scale = mode == DepthMode::pose || mode == DepthMode::estimated ? 1.25 : 1.0;
+    for (int i = 0; i < 4; ++i) CHECK_NEAR(d.goal_depth()(i), scale * z_star(i), 1e-9);
+    CHECK((d.goal_pose_estimate() != nullptr) == (mode == DepthMode::pose));
+    if (d.goal_pose_estimate()) CHECK(max_abs_diff(*d.goal_pose_estimate(), se3_inverse(goal) * t.pose) < 1e-9);
+  }
+  st::Depths d(depth_options(DepthMode::pose, 1.25), cam, t.points);
+  d.aim(z_star);
+  Points line(2, 4);
+  line << 0.0, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0, 0.0;
+  d.teach(line);
+  CHECK(d.goal_pose_estimate() == nullptr && d.goal_depth() == z_star);
 }
 
 // The odometry is the camera's new pose in its old frame; the online estimate, fed with
@@ -677,6 +706,7 @@ void run_tests() {
   measure_reports();
   measure_teaches();
   depth_modes();
+  depth_modes_teach();
   depth_estimate_converges();
   boundary_potential();
   control_step();

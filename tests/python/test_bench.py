@@ -83,6 +83,33 @@ def test_python_bench_json(capsys: pytest.CaptureFixture[str]) -> None:
             assert c["default_over_tuned"] > 0
 
 
+def test_python_bench_task_rows(capsys: pytest.CaptureFixture[str]) -> None:
+    """`ibvs bench` times the tasks of feature blocks too (default and tuned), their twists checked against numpy."""
+    assert bench.main(["--iterations", "100", "--json"]) == 0
+    cases = [c for c in json.loads(capsys.readouterr().out)["cases"] if c.get("task")]
+    assert {(c["name"], c["layout"]) for c in cases} == {
+        (n, t) for n in ("ibvs Servo.update default (damping 0, diagnostics)",
+                         "ibvs Servo.update tuned (damped, no diagnostics)") for t in bench.TASKS}
+    for c in cases:
+        assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
+        if c["name"].startswith("ibvs Servo.update tuned"):
+            assert c["twist_difference"] <= 1e-9
+        else:
+            assert c["default_over_tuned"] > 0
+    assert bench.main(["--iterations", "50"]) == 0
+    out = capsys.readouterr().out
+    assert "stacked+moments 22x6" in out and "moments 6x6" in out and "2.5-D 6x6" in out
+
+
+def test_task_agreement_check_raises_on_mismatch(monkeypatch: pytest.MonkeyPatch) -> None:
+    name, task, args = bench.make_task_frames(count=2)[0]
+    assert bench.check_task_agreement(task, args, damping=0.01, gain=0.5) <= 1e-9
+    real = np.linalg.solve
+    monkeypatch.setattr(bench.np.linalg, "solve", lambda A, b: 1.01 * real(A, b))
+    with pytest.raises(RuntimeError, match="disagree"):
+        bench.check_task_agreement(task, args, damping=0.01, gain=0.5)
+
+
 def test_agreement_check_raises_on_mismatch(monkeypatch: pytest.MonkeyPatch) -> None:
     real = bench.numpy_step
     monkeypatch.setattr(bench, "numpy_step", lambda *a: 1.01 * real(*a))
@@ -142,6 +169,37 @@ def test_cpp_bench_json(cpp_bench: str) -> None:
     for e in res["episodes"]:
         assert e["frames"] == 600 and e["outcome"] == "timeout"  # tolerance 0: the whole 10 s
         assert e["allocs_per_episode"] == 0 and 0.0 < e["median_ms"] <= e["max_ms"]
+
+
+TASK_ROWS = {"moments": 6, "pbvs": 6, "pbvs(object)": 6, "2.5-D": 6, "stacked+moments": 22}
+STEP_ROWS = ("Servo::update default (damping 0, diag.)", "Servo::update tuned (damped, no diag.)",
+             "Eigen floor: fixed-size LLT step")
+
+
+def test_cpp_bench_tasks_section(cpp_bench: str) -> None:
+    """Issue 21: every task of feature blocks has its default and tuned Servo::update rows beside its
+    fixed-size Eigen floor, none allocating. ibvs-bench exits 1 without a table when a floor's twist
+    disagrees with Servo::update's (relative 1e-9), so the floors printed agree."""
+    r = subprocess.run([cpp_bench, "--iterations", "300", "--sections", "tasks", "--json"], check=True,
+                       capture_output=True, text=True, timeout=300)
+    cases = json.loads(r.stdout)["cases"]
+    assert {(c["name"], c["layout"]) for c in cases} == {(n, t) for n in STEP_ROWS for t in TASK_ROWS}
+    for c in cases:
+        assert c["section"] == "tasks" and c["rows"] == TASK_ROWS[c["layout"]], c
+        assert c["allocs_per_call"] == 0, c  # the real-time path of every task allocates nothing
+        assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
+        if c["name"].startswith("Servo::update"):
+            assert 0 <= c["robust_frames"] <= 64, c
+            assert c["diagnostics"] == c["name"].startswith("Servo::update default"), c
+    assert c["n"] == 4  # the mixed task (last) has the 4 points of its stacked layout
+    for task, rows in TASK_ROWS.items():  # the human table (stderr with --json): each task's rows
+        assert f"{task} {rows}x6" in r.stderr, task
+    assert "disagrees" not in r.stderr and not re.search(r"\bnan\b", r.stderr)
+
+
+def test_cpp_bench_default_sections_include_tasks(cpp_bench: str) -> None:
+    r = subprocess.run([cpp_bench, "--help"], check=True, capture_output=True, text=True, timeout=60)
+    assert "components, tasks, growth" in r.stdout and "default all seven" in r.stdout
 
 
 def test_cpp_bench_camera_section(cpp_bench: str) -> None:

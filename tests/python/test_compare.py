@@ -187,6 +187,18 @@ def test_depth_error_moves_the_pbvs_goal_not_the_image_based_one():
     assert rows["2.5d"].converged and rows["2.5d"].final_translation_error == pytest.approx(1.5, abs=0.05)
 
 
+@pytest.mark.parametrize("scale", [0.5, 2.0])
+def test_depth_error_taught_by_showing_leaves_pbvs_at_the_goal(scale):
+    """The pose depth mode scaled by s: the goal's pose (and 2.5-D's Z*) estimated from the goal's image carries the
+    same s as every frame's (teach by showing), so PBVS and 2.5-D head for the true goal whatever s (PBVS's
+    translation at the rate gain * s: with s = 0.5 it is 1e-5 m away after 20 s, exp(-10) of its start)."""
+    setup = compare.scenario().replace(depth="pose")
+    for s in ("pbvs", "pbvs_object", "2.5d"):
+        row = compare.summarise("", "", s, compare.run(s, start(**GENERAL), depth_scale=scale, setup=setup), scale)
+        assert row.reached and row.final_translation_error < 1e-4 and row.final_rotation_error < 1e-6, row
+        assert row.converged or scale < 1, row
+
+
 # ------------------------------------------------------------------ schemes, sweeps and the command
 
 
@@ -286,18 +298,43 @@ def test_miscalibrated_camera_refuses_and_pickles():
 
 
 @pytest.mark.parametrize("calibration", ["f ×0.8", "f ×1.25", "c +(24, −16) px"])
-def test_calibration_error_leaves_ibvs_at_the_goal_and_biases_pbvs(calibration):
-    """Teach by showing through the wrong model: IBVS's error is zero only at the taught image, so it reaches the
-    goal; PBVS given the true goal pose ends where its biased estimate equals it: a focal length s times the true
-    one shows the fronto-parallel target at the goal's distance when it is at Z* / s (s = 0.8: 3.75 m), a principal
-    point offset d (px) when it is shifted sideways by Z* d / f."""
-    rows = {s: compare.summarise("calibration", calibration, s,
-                                 compare.run(s, start(**GENERAL), calibration=calibration))
-            for s in ("cartesian", "pbvs")}
-    assert rows["cartesian"].reached, rows["cartesian"]
+def test_calibration_error_teaches_every_law_the_goal_image(calibration):
+    """Teach by showing through the wrong model: IBVS's error is zero only at the taught image; PBVS and 2.5-D aim
+    at the pose the pose depth mode estimates from the goal's image, so their error is zero where the current
+    image's estimate equals it, i.e. where the image is the goal's: all three end at the true goal, with the goal's
+    image (pixels). The bias sits in that estimate of the goal, by what the estimate of a planar target does: a focal
+    length s times the true one shows the fronto-parallel target at s Z* (s = 0.8: 2.4 m for 3 m; a PBVS given the
+    true goal pose would end where the estimate is Z*, at Z* / s), a principal point offset d (px) shifted sideways
+    by Z* d / f."""
     scale, (du, dv), _ = compare.CALIBRATIONS[calibration]
-    want = compare.DEPTH * abs(1 / scale - 1) if scale != 1 else compare.DEPTH * np.hypot(du, dv) / compare.FOCAL
-    assert rows["pbvs"].converged and rows["pbvs"].final_translation_error == pytest.approx(want, rel=2e-3)
+    want = compare.DEPTH * abs(scale - 1) if scale != 1 else compare.DEPTH * np.hypot(du, dv) / compare.FOCAL
+    for s in ("cartesian", "pbvs", "2.5d"):
+        r = compare.run(s, start(**GENERAL), calibration=calibration)
+        row = compare.summarise("calibration", calibration, s, r)
+        assert row.converged and row.reached, row
+        assert row.final_translation_error < 1e-5 and row.final_rotation_error < 1e-5, row
+        last = np.asarray(r.history.measured)[-1].reshape(-1, 2)
+        np.testing.assert_allclose(last, np.asarray(r.measured_desired), rtol=0, atol=1e-3)  # pixels
+    # the goal as the controller knows it: PlanarPose of the goal's image through the wrong model
+    cdMo_hat, _, degenerate = ibvs.PlanarPose(np.asarray(r.target.points)).estimate(r.uv_desired)
+    assert not degenerate
+    cdMo = np.asarray(r.target.pose)  # the goal camera is the world origin
+    assert np.linalg.norm(cdMo_hat[:3, 3] - cdMo[:3, 3]) == pytest.approx(want, rel=2e-3)
+    assert r.measurements_desired[2] == pytest.approx(np.asarray(r.target.points)[0] @ cdMo_hat[2, :3]
+                                                      + cdMo_hat[2, 3], rel=1e-9)  # 2.5-D's Z*: the estimate's
+
+
+@pytest.mark.parametrize("scheme", ["pbvs", "pbvs_object", "2.5d", "moments"])
+def test_estimated_goal_is_the_true_one_for_an_exact_image(scheme):
+    """With an exact camera the pose depth mode's estimate of the goal is the true goal: the sources' desired
+    measurements and the run are those of the true goal pose (the exact depth mode's goal) to 1e-9."""
+    setup = compare.scenario()
+    target = schemes.target_for(scheme, setup.target)
+    runs = {d: sim.run(schemes.make(scheme, compare.GAIN), setup.camera, target, start(**GENERAL), np.eye(4),
+                       duration=2.0, depth=d, tolerance=compare.TOLERANCE) for d in ("exact", "pose")}
+    np.testing.assert_allclose(runs["pose"].measurements_desired, runs["exact"].measurements_desired, rtol=0,
+                               atol=1e-9)
+    np.testing.assert_allclose(runs["pose"].history.pose, runs["exact"].history.pose, rtol=0, atol=1e-9)
 
 
 def test_the_calibration_table_of_the_docs_is_the_commands():

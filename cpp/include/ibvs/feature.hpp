@@ -66,6 +66,14 @@ class Feature {
   /// L (rows() x 6) at an accepted measurement, written into the first rows() rows of L.
   virtual void interaction(const double* m, Eigen::Ref<MatrixX6> L) const noexcept = 0;
 
+  /// The Servo's per-frame work on the block with the current interaction matrix, in one call:
+  /// check() of m and of m_desired (the refusal of the first one refused; nullptr when both are
+  /// accepted), then align(m, m_desired) in place, e = error(m, m_desired) and L = interaction(m).
+  /// The default makes those calls in turn; a kind whose calls would evaluate the same quantities
+  /// again (image moments: five evaluations, two needed) overrides it with the same results, bit
+  /// for bit. Nothing is written to e and L when a measurement is refused.
+  virtual const char* evaluate(double* m, const double* m_desired, double* e, Eigen::Ref<MatrixX6> L) const noexcept;
+
   /// Throws std::invalid_argument "ibvs: <name>[<entry>] ..." when check() refuses m.
   void validate(const double* m, const std::string& name) const;
 };

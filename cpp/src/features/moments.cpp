@@ -59,7 +59,7 @@ struct Evaluation {
   double third = 0.0;  // Re(z3 e^{-3 i alpha}) sqrt(m00) / I3^(3/2): 0 when its orientation is undefined
 };
 
-Evaluation evaluate(const double* mm, MomentsFeature::Source source, MomentsFeature::Invariants invariants,
+Evaluation evaluation(const double* mm, MomentsFeature::Source source, MomentsFeature::Invariants invariants,
                     MomentsFeature::Alpha alpha_kind) noexcept {
   const bool region = source == MomentsFeature::Source::region;
   const double r = region ? 1.0 : 0.0;  // the area element's change (regions only)
@@ -175,6 +175,16 @@ Moments polygon_moments(Eigen::Index n, const XY& xy) noexcept {
 
 double wrap_half(double d) noexcept { return 0.5 * wrap_angle(2.0 * d); }  // into (-pi/2, pi/2]
 
+// e = s (-) s* of the selected rows: alpha's difference wrapped (over the full turn, or modulo pi).
+void differences(const Evaluation& ev, const Evaluation& evd, unsigned rows, MomentsFeature::Alpha alpha,
+                 double* e) noexcept {
+  for (unsigned b = 0, r = 0; b < 6; ++b)
+    if ((rows >> b) & 1u) {
+      const double d = ev.s[b].v - evd.s[b].v;
+      e[r++] = b < 5 ? d : (alpha == MomentsFeature::Alpha::third_order ? wrap_angle(d) : wrap_half(d));
+    }
+}
+
 }  // namespace
 
 
@@ -258,8 +268,11 @@ std::array<double, 20> MomentsFeature::project(const Eigen::Ref<const Eigen::Mat
   return measure(m, source, a_desired, depth_desired, normal.x() / d, normal.y() / d, normal.z() / d);
 }
 
-const char* MomentsFeature::check(const double* m, int& entry) const noexcept {
-  for (entry = 0; entry < measurement_size; ++entry)
+namespace {
+
+// The refusals decided from the measurement's entries alone (before it is evaluated).
+const char* check_entries(const double* m, int& entry) noexcept {
+  for (entry = 0; entry < MomentsFeature::measurement_size; ++entry)
     if (!std::isfinite(m[entry])) return "is not finite";
   entry = 0;
   if (!(m[0] > 0.0)) return "m00 must be > 0 (an object of zero area, or no points)";
@@ -279,39 +292,65 @@ const char* MomentsFeature::check(const double* m, int& entry) const noexcept {
   for (entry = 17; entry < 20; ++entry)
     if (std::abs(m[entry]) > 1.0 / min_depth) return "the plane's A, B, C must be within 1 / min_depth";
   entry = -1;
-  const Evaluation ev = evaluate(m, source_, invariants_, alpha_);
+  return nullptr;
+}
+
+// The refusals decided from its evaluation (the selected rows, their invariants and orientation).
+const char* check_evaluation(const Evaluation& ev, unsigned rows, MomentsFeature::Invariants invariants,
+                             MomentsFeature::Alpha alpha) noexcept {
+  using Row = MomentsFeature::Row;
   if (!(ev.a > 0.0) || !(ev.flat >= 1e-9))
     return "the object is flat or has zero area (collinear points, a zero-width region)";
   if (!(ev.depth >= 1.0 / max_depth))
     return "the plane is seen edge-on or from behind at the object (1/Z = A x + B y + C <= 0 at its centre)";
-  const bool needs_axis = (rows_ & Row::alpha) || (invariants_ == Invariants::s && (rows_ & (Row::r1 | Row::r2)));
+  const bool needs_axis =
+      (rows & Row::alpha) || (invariants == MomentsFeature::Invariants::s && (rows & (Row::r1 | Row::r2)));
   if (needs_axis && !(ev.anisotropy >= 1e-12))
     return "alpha (and the S invariants) are undefined: mu20 = mu02 and mu11 = 0 (a square, a disc)";
-  if ((rows_ & Row::alpha) && alpha_ == Alpha::third_order && !(std::abs(ev.third) >= 1e-9))
+  if ((rows & Row::alpha) && alpha == MomentsFeature::Alpha::third_order && !(std::abs(ev.third) >= 1e-9))
     return "the third-order orientation is undefined (a centrally symmetric object: use Alpha::second_order)";
   for (unsigned b = 0; b < 6; ++b)
-    if (((rows_ >> b) & 1u) && (!(std::abs(ev.s[b].v) <= max_entry) || !(ev.s[b].d.cwiseAbs().maxCoeff() <= max_entry)))
+    if (((rows >> b) & 1u) && (!(std::abs(ev.s[b].v) <= max_entry) || !(ev.s[b].d.cwiseAbs().maxCoeff() <= max_entry)))
       return "gives values or interaction entries beyond 1e20 (not the moments of an object)";
   return nullptr;
 }
 
+}  // namespace
+
+const char* MomentsFeature::check(const double* m, int& entry) const noexcept {
+  if (const char* why = check_entries(m, entry)) return why;
+  return check_evaluation(evaluation(m, source_, invariants_, alpha_), rows_, invariants_, alpha_);
+}
+
+// check(), error() and interaction() on the two measurements with each evaluated once (their
+// five evaluations give the same numbers twice or three times): the same results, bit for bit.
+const char* MomentsFeature::evaluate(double* m, const double* md, double* e, Eigen::Ref<MatrixX6> L) const noexcept {
+  int entry = -1;
+  if (const char* why = check_entries(m, entry)) return why;
+  const Evaluation ev = evaluation(m, source_, invariants_, alpha_);
+  if (const char* why = check_evaluation(ev, rows_, invariants_, alpha_)) return why;
+  if (const char* why = check_entries(md, entry)) return why;
+  const Evaluation evd = evaluation(md, source_, invariants_, alpha_);
+  if (const char* why = check_evaluation(evd, rows_, invariants_, alpha_)) return why;
+  differences(ev, evd, rows_, alpha_, e);
+  for (unsigned b = 0, r = 0; b < 6; ++b)
+    if ((rows_ >> b) & 1u) L.row(r++) = ev.s[b].d;
+  return nullptr;
+}
+
 void MomentsFeature::value(const double* m, double* s) const noexcept {
-  const Evaluation ev = evaluate(m, source_, invariants_, alpha_);
+  const Evaluation ev = evaluation(m, source_, invariants_, alpha_);
   for (unsigned b = 0, r = 0; b < 6; ++b)
     if ((rows_ >> b) & 1u) s[r++] = ev.s[b].v;
 }
 
 void MomentsFeature::error(const double* m, const double* md, double* e) const noexcept {
-  const Evaluation ev = evaluate(m, source_, invariants_, alpha_), evd = evaluate(md, source_, invariants_, alpha_);
-  for (unsigned b = 0, r = 0; b < 6; ++b)
-    if ((rows_ >> b) & 1u) {
-      const double d = ev.s[b].v - evd.s[b].v;
-      e[r++] = b < 5 ? d : (alpha_ == Alpha::third_order ? wrap_angle(d) : wrap_half(d));
-    }
+  const Evaluation ev = evaluation(m, source_, invariants_, alpha_), evd = evaluation(md, source_, invariants_, alpha_);
+  differences(ev, evd, rows_, alpha_, e);
 }
 
 void MomentsFeature::interaction(const double* m, Eigen::Ref<MatrixX6> L) const noexcept {
-  const Evaluation ev = evaluate(m, source_, invariants_, alpha_);
+  const Evaluation ev = evaluation(m, source_, invariants_, alpha_);
   for (unsigned b = 0, r = 0; b < 6; ++b)
     if ((rows_ >> b) & 1u) L.row(r++) = ev.s[b].d;
 }

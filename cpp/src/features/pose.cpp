@@ -26,10 +26,25 @@ Eigen::Vector3d theta_u(const Eigen::Matrix3d& R) noexcept {
   return tu;
 }
 
-Eigen::Matrix3d rotation_of(const Eigen::Vector3d& tu) noexcept {
-  Twist xi;
-  xi << 0.0, 0.0, 0.0, tu;
-  return se3_exp(xi).topLeftCorner<3, 3>();
+// The rotation block of se3_exp((0, theta u)) (se3.hpp), the same arithmetic without the
+// translation's (PBVS evaluates it every frame: half the instructions, the same bits).
+Eigen::Matrix3d rotation_of(const Eigen::Vector3d& w) noexcept {
+  double th = w.norm();
+  if (std::isinf(th)) th = w.stableNorm();
+  if (th < 1e-4) {
+    Eigen::Matrix3d W;
+    W << 0, -w(2), w(1), w(2), 0, -w(0), -w(1), w(0), 0;
+    const Eigen::Matrix3d W2 = W * W;
+    const double t2 = th * th;
+    const double a = 1.0 - t2 / 6.0, b = 0.5 - t2 / 24.0;
+    return Eigen::Matrix3d::Identity() + a * W + b * W2;
+  }
+  const Eigen::Vector3d k = w / th;
+  Eigen::Matrix3d K;
+  K << 0, -k(2), k(1), k(2), 0, -k(0), -k(1), k(0), 0;
+  const Eigen::Matrix3d K2 = K * K;
+  const double s = std::sin(th), c = std::cos(th);
+  return Eigen::Matrix3d::Identity() + s * K + (1.0 - c) * K2;
 }
 
 Eigen::Vector3d principal_theta_u(const Eigen::Vector3d& tu) noexcept {

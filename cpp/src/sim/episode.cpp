@@ -182,7 +182,8 @@ void Episode::prepare(const Pose& goal) {
   s.measure.teach(goal, *sensor_, result_.uv_desired, result_.depth_desired);
   result_.measured_desired = s.measure.goal_measured();
   s.depths.aim(result_.depth_desired);
-  s.sources.teach(goal, result_.uv_desired, result_.depth_desired);
+  s.depths.teach(result_.uv_desired);
+  s.sources.teach(goal, result_.uv_desired, s.depths.goal_depth(), s.depths.goal_pose_estimate());
   result_.measurements_desired = s.sources.desired();
   s.control.aim(s.measure.goal_measured());
   s.judge.aim(goal);

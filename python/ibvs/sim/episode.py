@@ -129,7 +129,10 @@ def run(
         between them as the robot reports it: a Kalman filter on the point and its
         inverse depth (x, y, 1/z), initialised at depth_scale * z*). A feature block's depth
         inputs (a line's plane...) come from the matching pose: the true one, the goal's, the
-        planar pose estimate, or the target's points fitted to the estimated points.
+        planar pose estimate, or the target's points fitted to the estimated points. The goal
+        of PBVS, 2.5-D and moments blocks is the goal as the depth mode knows it there (teach by
+        showing): the true one for "exact" and "desired", the planar pose estimate of the goal's
+        image for "pose", the fit at the prior depths depth_scale * z* for "estimated".
     depth_scale: in [1e-3, 1e3], multiplies the depth given to the controller (a depth calibration
         error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).

@@ -24,8 +24,9 @@ A camera whose controller believes wrong intrinsics (focal lengths, principal po
 How (no change to the C++ loop, which normalises the sensor's pixels with the episode's camera): the sensor reports,
 for the true pixels p, the pixels true.project(believed.normalize(p)), which the episode's (true) model normalises
 to believed.normalize(p): the controller sees every pixel through the believed model, the goal's included (teach by
-showing), and so does everything computed from its points (the pose depth mode's ibvs.PlanarPose estimate, the
-moments, the 2.5-D reference point). Whether a point is in the image is judged on its true pixel.
+showing), and so does everything computed from its points (the pose depth mode's ibvs.PlanarPose estimate, of every
+frame and of the goal: the goal pose PBVS, 2.5-D and the moments aim at; the moments, the 2.5-D reference point).
+Whether a point is in the image is judged on its true pixel.
 """
 
 from __future__ import annotations

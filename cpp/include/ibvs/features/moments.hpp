@@ -128,6 +128,7 @@ class MomentsFeature final : public Feature {
   void value(const double* m, double* s) const noexcept override;
   void error(const double* m, const double* m_desired, double* e) const noexcept override;
   void interaction(const double* m, Eigen::Ref<MatrixX6> L) const noexcept override;
+  const char* evaluate(double* m, const double* m_desired, double* e, Eigen::Ref<MatrixX6> L) const noexcept override;
 
  private:
   Source source_;

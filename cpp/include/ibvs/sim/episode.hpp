@@ -46,7 +46,10 @@
 //      at the new joints (pose of the next frame, Jacobian of its mapping).
 // Desired features are measured the same way at the goal pose (teach by
 // showing: the sensor's frame -1, without noise), so the goal is an exact
-// equilibrium of the noise-free loop.
+// equilibrium of the noise-free loop. The feature blocks' goal pose and depths
+// are what the depth mode knows there (source.hpp): the true ones for exact and
+// desired, estimated from the goal's image for pose and estimated; the points'
+// desired depths z* (EpisodeResult::depth_desired) are the true ones.
 //
 // Target faces and collisions (step 2). A planar target (all points in its
 // z = 0 plane, Target::planar) is a plate: its front is the side of its plane

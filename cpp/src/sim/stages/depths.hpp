@@ -11,8 +11,12 @@
 //              as the robot's odometry knows it (odometry(), from the actuate
 //              stage's poses); its prior is depth_scale z*.
 // All but `estimated` are then multiplied by depth_scale (a calibration error;
-// the estimate carries it in its prior only). Allocated by the constructor;
-// estimate() and odometry() never allocate.
+// the estimate carries it in its prior only). At the goal (teach(), frame -1,
+// teach by showing) the depth mode knows: exact and desired the given z* (and
+// the goal's true pose, for the sources); pose ibvs::PlanarPose's estimate from
+// the goal's image, as from every frame's (depths times depth_scale); estimated
+// its prior depth_scale z* (one image: nothing moved yet). Allocated by the
+// constructor; estimate() and odometry() never allocate.
 #pragma once
 
 #include "ibvs/depth_estimator.hpp"
@@ -40,6 +44,10 @@ class Depths {
 
   /// The goal's depths z* (N): the desired depths, and the estimate's prior depth_scale z*.
   void aim(const Eigen::VectorXd& depth_desired);
+  /// After aim(): what the depth mode knows at the goal from its image uv_desired (2 x N, the
+  /// controller's points there), into goal_depth() and goal_pose_estimate() (pose: null, and
+  /// goal_depth() z*, when the goal's image is degenerate; the sources stage then refuses the goal).
+  void teach(const Points& uv_desired);
   /// A new run: no pose estimate yet (the depth estimate restarts at frame 0).
   void start() noexcept { have_pose_ = false; }
   /// The depths for frame k (into depth()): uv the controller's points, true_depths
@@ -52,6 +60,11 @@ class Depths {
   const Eigen::VectorXd& depth() const noexcept { return z_; }  ///< N, metres
   /// The pose mode's last estimate (camera <- target, before depth_scale), or null before the first.
   const Pose* pose_estimate() const noexcept { return have_pose_ ? &pose_ : nullptr; }
+  /// The goal's depths as the depth mode knows them (N, see above; exact, desired: z* as given).
+  const Eigen::VectorXd& goal_depth() const noexcept { return goal_z_; }
+  /// The pose mode's estimate of the goal (camera <- target, before depth_scale), or null (other
+  /// modes, or a degenerate goal image).
+  const Pose* goal_pose_estimate() const noexcept { return have_goal_pose_ ? &goal_pose_ : nullptr; }
   /// Motion recorded for frame k: the camera's new pose in its old frame.
   const Pose& motion(int k) const noexcept { return ring_motion_[static_cast<std::size_t>(k % slots_)]; }
 
@@ -60,10 +73,12 @@ class Depths {
   double scale_ = 1.0;
   int latency_ = 0, slots_ = 1;
   Eigen::Matrix3Xd points_;  // target frame (pose)
-  Eigen::VectorXd desired_, z_;
+  Eigen::VectorXd desired_, z_, goal_z_;
   std::optional<PlanarPose> pose_estimator_;      // pose
   Pose pose_ = Pose::Identity();                  // pose: last estimate, camera <- target
   bool have_pose_ = false;
+  Pose goal_pose_ = Pose::Identity();             // pose: the goal's estimate, camera <- target
+  bool have_goal_pose_ = false;
   std::optional<DepthEstimator> depth_estimator_;  // estimated
   std::vector<Pose> ring_motion_;                  // estimated: latency + 1
 };
@@ -80,6 +95,7 @@ inline Depths::Depths(const EpisodeOptions& options, const CameraModel& camera,
   const Eigen::Index n = target_points.cols();
   desired_.resize(n);
   z_.resize(n);
+  goal_z_.resize(n);
   if (mode_ == DepthMode::pose) {
     try {
       pose_estimator_.emplace(target_points);
@@ -99,10 +115,19 @@ inline Depths::Depths(const EpisodeOptions& options, const CameraModel& camera,
 
 inline void Depths::aim(const Eigen::VectorXd& depth_desired) {
   desired_ = depth_desired;
+  goal_z_ = depth_desired;
   if (depth_estimator_) {  // prior: the desired depths times depth_scale (z_ is scratch here: no allocation)
     z_ = scale_ * depth_desired;
     depth_estimator_->reset(z_);
   }
+}
+
+inline void Depths::teach(const Points& uv_desired) {
+  have_goal_pose_ = false;
+  if (mode_ == DepthMode::estimated) goal_z_ = scale_ * desired_;
+  if (mode_ != DepthMode::pose) return;
+  have_goal_pose_ = pose_estimator_->estimate(uv_desired, goal_pose_, goal_z_);
+  if (have_goal_pose_) goal_z_ *= scale_;
 }
 
 inline void Depths::estimate(int k, const Points& uv,

@@ -9,7 +9,11 @@
 //   estimated  the rigid fit (fit_pose below) of the target's points onto the
 //              estimated points z_i (u_i, v_i, 1),
 // the translation times depth_scale but for estimated (which carries it in its
-// prior). Each measurement is checked by its block's Feature::check: a source
+// prior). The goal (SourceFrame::goal, what PBVS and 2.5-D aim at and the
+// moments' a* and Z* come from) is the same at frame -1 (teach by showing):
+// exact and desired the goal's true pose; pose the estimate from the goal's
+// image; estimated the fit to the goal's image at the prior depths
+// depth_scale z* (Depths::teach). Each measurement is checked by its block's Feature::check: a source
 // that cannot measure, or a refused measurement, is reported as the lost
 // block's index (the judge ends the episode as lost_feature). Allocated by the
 // constructor; measure() never allocates.
@@ -55,9 +59,12 @@ class Sources {
   bool active() const noexcept { return !target_.sources.empty(); }
   int size() const noexcept { return static_cast<int>(m_.size()); }  ///< Task::measurement_size()
 
-  /// The goal's measurements (frame -1, the true goal pose), into desired(); throws
-  /// std::invalid_argument if a source cannot measure there or its block refuses it.
-  void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& depth_desired);
+  /// The goal's measurements (frame -1) into desired(): goal the true world <- camera, uv_desired
+  /// the controller's points there, goal_depth and goal_pose_estimate what the depth stage knows
+  /// there (Depths::teach). Throws std::invalid_argument if the goal's pose cannot be fitted
+  /// (estimated), a source cannot measure there or its block refuses it.
+  void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& goal_depth,
+             const Pose* goal_pose_estimate);
 
   /// Frame k: T_cw the camera <- world of the frame the controller sees, pose_estimate the depth
   /// stage's camera <- target (pose mode; null: none yet), uv and z the controller's points and
@@ -75,7 +82,8 @@ class Sources {
   const Task* task_ = nullptr;  // &task_storage_, or null for a PartitionedServo
   DepthMode mode_ = DepthMode::exact;
   double scale_ = 1.0;
-  Pose goal_cMo_ = Pose::Identity();
+  Pose goal_cMo_ = Pose::Identity();    // the goal's true camera <- target
+  Pose goal_known_ = Pose::Identity();  // the goal as the depth mode knows it (SourceFrame::goal)
   Eigen::Matrix3Xd camera_points_;  // estimated: z_i (u_i, v_i, 1)
   Eigen::VectorXd m_, desired_;
 };
@@ -125,14 +133,28 @@ inline int Sources::measure_all(SourceFrame& f, Eigen::VectorXd& m) const noexce
   return -1;
 }
 
-inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& depth_desired) {
+inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& goal_depth,
+                           const Pose* goal_pose_estimate) {
   if (!active()) return;
   goal_cMo_ = se3_inverse(goal) * target_.pose;
+  goal_known_ = goal_cMo_;  // exact, desired: the goal pose given
+  if (mode_ == DepthMode::pose) {  // as every frame's depth pose, from the goal's image
+    if (!goal_pose_estimate)
+      throw std::invalid_argument("ibvs: goal: the pose depth mode cannot estimate the goal's pose from its image");
+    goal_known_ = *goal_pose_estimate;
+    goal_known_.topRightCorner<3, 1>() *= scale_;
+  } else if (mode_ == DepthMode::estimated) {  // the fit to the goal's image at the prior depths
+    for (Eigen::Index i = 0; i < uv_desired.cols(); ++i)
+      camera_points_.col(i) << goal_depth(i) * uv_desired(0, i), goal_depth(i) * uv_desired(1, i), goal_depth(i);
+    if (!fit_pose(target_.points, camera_points_, goal_known_))
+      throw std::invalid_argument("ibvs: goal: the estimated depth mode cannot fit the goal's pose to its image");
+  }
   SourceFrame f;
   f.frame = -1;
-  f.cMo = f.depth_pose = f.goal = goal_cMo_;
+  f.cMo = goal_cMo_;
+  f.depth_pose = f.goal = goal_known_;
   f.uv = &uv_desired;
-  f.depth = &depth_desired;
+  f.depth = &goal_depth;
   f.points = &target_.points;
   for (int k = 0; k < task_->n_features(); ++k) {
     const auto& source = *target_.sources[static_cast<std::size_t>(k)];
@@ -150,7 +172,7 @@ inline int Sources::measure(int k, const Pose& T_cw, const Pose* pose_estimate, 
   SourceFrame f;
   f.frame = k;
   f.cMo = T_cw * target_.pose;
-  f.goal = goal_cMo_;
+  f.goal = goal_known_;
   f.uv = &uv;
   f.depth = &z;
   switch (mode_) {
