@@ -324,6 +324,14 @@ void azimuths_half_turn() {
   ibvs_test::report(T < 1e-9 && wxy < 1e-9 && std::abs(out.velocity(5)) > 0.5, "spherical polar half-turn: pure wz",
                     __FILE__, __LINE__, "|T| " + std::to_string(T) + " |wxy| " + std::to_string(wxy));
   CHECK(pp.velocity.head<3>().norm() > 0.5);  // the sideways throw of the per-point wrap
+  for (InteractionMatrix which : {InteractionMatrix::desired, InteractionMatrix::mean}) {  // the unfused path too
+    ServoOptions wo;
+    wo.jacobian = which;
+    Servo other(task, wo);
+    ServoOutput oo(task);
+    CHECK(other.update(in, oo) != Status::invalid_input);
+    CHECK(oo.error == out.error);
+  }
   // As IBVS-P on the same view: the same twist.
   ServoOptions po;
   po.gain = 1.0;
