@@ -1,11 +1,15 @@
 #include "ibvs/pinv.hpp"
 
 #include "checks.hpp"
+#include "svd_instances.hpp"
 
 #include <Eigen/SVD>
 
 #include <stdexcept>
 #include <string>
+
+// The one instantiation of JacobiSVD<MatrixXd> (svd_instances.hpp), shared with the C++ tests.
+template class Eigen::JacobiSVD<Eigen::MatrixXd>;
 
 namespace ibvs {
 namespace {

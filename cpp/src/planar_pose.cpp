@@ -1,6 +1,7 @@
 #include "ibvs/planar_pose.hpp"
 
 #include "checks.hpp"
+#include "svd_instances.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -10,6 +11,9 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+// The one instantiation of JacobiSVD<Matrix3d> (svd_instances.hpp), shared with the simulator.
+template class Eigen::JacobiSVD<Eigen::Matrix3d>;
 
 namespace ibvs {
 

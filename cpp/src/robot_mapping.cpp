@@ -2,12 +2,16 @@
 
 #include "ibvs/pinv.hpp"
 
+#include "svd_instances.hpp"
 #include "solve.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+// The one instantiation of the joint-space SVD (svd_instances.hpp), shared with secondary_task.cpp.
+template class Eigen::JacobiSVD<ibvs::detail::JointSvdMatrix>;
 
 namespace ibvs {
 

@@ -2,6 +2,8 @@
 
 #include "ibvs/pinv.hpp"
 
+#include "svd_instances.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>

@@ -21,6 +21,8 @@
 
 #include "ibvs/sim/episode.hpp"
 
+#include "../../svd_instances.hpp"
+
 #include <Eigen/Core>
 #include <Eigen/SVD>
 
