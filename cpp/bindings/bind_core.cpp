@@ -440,7 +440,8 @@ Servo(layout, gain, damping=0.0, jacobian="current", polar_min_radius=1e-3, diag
   max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
             factor so that |T| and |w| stay within them (direction kept); inf = no limit
   camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None
-  angle_wrap  "consistent" (default): the theta differences of one frame are wrapped as one
+  angle_wrap  "consistent" (default): the theta differences of one frame (and the feature blocks'
+            angles about the axis, Feature.axis_angle_rows) are wrapped as one
             rotation about their circular mean (see feature_error), the mean kept on the
             previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
             forgets it); "per_point": eq. (13) point by point, no memory

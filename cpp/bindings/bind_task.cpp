@@ -118,6 +118,21 @@ interaction() evaluate it (they check the measurement first: ValueError naming t
            },
            py::arg("measurement"), py::arg("measurement_desired"),
            "s (-) s*: the measurement aligned to the goal's, angles wrapped (rows,).")
+      .def("axis_angle_rows",
+           [](const Feature& f, py::handle m, py::handle md) {
+             Eigen::VectorXd v = measurement(f, m, "measurement");
+             const Eigen::VectorXd vd = measurement(f, md, "measurement_desired");
+             f.align(v.data(), vd.data());
+             const std::uint64_t bits = f.axis_angle_rows(v.data(), vd.data());
+             std::vector<int> rows;
+             for (int i = 0; i < std::min(f.rows(), 64); ++i)
+               if (bits >> i & 1U) rows.push_back(i);
+             return rows;
+           },
+           py::arg("measurement"), py::arg("measurement_desired"),
+           "The error rows that are angles about the optical axis at these measurements: they join a Servo's "
+           "consistent angle wrap (angle_wrap=\"consistent\") with the polar points' theta rows. [] for most kinds; "
+           "[1] (the azimuth) for a SphericalPolarFeature off the axis.")
       .def("interaction",
            [](const Feature& f, py::handle m) {
              const Eigen::VectorXd v = measurement(f, m, "measurement");

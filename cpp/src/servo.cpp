@@ -10,6 +10,7 @@
 #include <type_traits>
 #include <algorithm>
 #include <variant>
+#include <vector>
 
 namespace ibvs {
 namespace {
@@ -183,7 +184,7 @@ struct Work {
 
   // Rows after the points: each feature block's error and interaction matrix, from the current
   // measurement aligned to the goal's (a copy in `aligned`); `spare` holds the goal's rows for
-  // InteractionMatrix::mean. Then the task's weights and degrees of freedom.
+  // InteractionMatrix::mean. Then (weigh) the task's weights and degrees of freedom.
   void assemble_features(const Task& task, InteractionMatrix which, const double* m, const double* md,
                          double* aligned, MatrixX6& spare) noexcept {
     for (int k = 0; k < task.n_features(); ++k) {
@@ -204,6 +205,32 @@ struct Work {
           break;
       }
     }
+  }
+
+  // The consistent wrap of the feature blocks' angle rows about the optical axis: each block's
+  // (Feature::axis_angle_rows of its aligned measurement, recorded in `angles`; returns whether
+  // there are any), their differences (error() gives them in (-pi, pi]) added to the points'
+  // resultant ...
+  static bool record_feature_angles(const Task& task, const double* aligned, const double* md,
+                                    std::uint64_t* angles) noexcept {
+    std::uint64_t any = 0;
+    for (int k = 0; k < task.n_features(); ++k)
+      any |= angles[k] = task.feature(k).axis_angle_rows(aligned + task.offset(k), md + task.offset(k));
+    return any != 0;
+  }
+  void add_feature_angles(const Task& task, const std::uint64_t* angles, AngleResultant& sum) const noexcept {
+    for (int k = 0; k < task.n_features(); ++k)
+      for (int i = 0; i < std::min(task.feature(k).rows(), 64); ++i)
+        if (angles[k] >> i & 1U) {
+          const double d = e(task.row(k) + i);
+          sum.add(std::cos(d), std::sin(d));
+        }
+  }
+  // ... and, once the centre is known, re-wrapped about it as the points' are.
+  void wrap_feature_angles(const Task& task, const std::uint64_t* angles, double centre) noexcept {
+    for (int k = 0; k < task.n_features(); ++k)
+      for (int i = 0; i < std::min(task.feature(k).rows(), 64); ++i)
+        if (angles[k] >> i & 1U) e(task.row(k) + i) = wrap_about(e(task.row(k) + i), centre);
   }
   // assemble_features() for InteractionMatrix::current with each block's check folded in
   // (Feature::evaluate: the same rows, bit for bit, each measurement evaluated once where a kind
@@ -254,6 +281,7 @@ struct Servo::Kernel {
       work;
 
   Eigen::VectorXd aligned;  // the current measurements, aligned to the goal's (feature blocks)
+  std::vector<std::uint64_t> angles;  // each feature block's angle rows this frame (consistent wrap)
   MatrixX6 spare;           // a feature block's rows at the goal (InteractionMatrix::mean)
   Points uv_valid;          // uv and depth with the lost points at their goal (ServoInput::valid)
   Eigen::VectorXd z_valid;
@@ -271,6 +299,7 @@ struct Servo::Kernel {
     int largest = 0;
     for (int k = 0; k < task.n_features(); ++k) largest = std::max(largest, task.feature(k).rows());
     aligned = Eigen::VectorXd::Zero(task.measurement_size());
+    angles.assign(static_cast<std::size_t>(task.n_features()), 0);
     spare = MatrixX6::Zero(largest, 6);
     uv_valid = Points::Zero(2, task.n_points());
     z_valid = Eigen::VectorXd::Ones(task.n_points());
@@ -575,18 +604,26 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
         if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) {
           return detail::refuse(out);  // unreachable: the constructor always builds a kernel
         } else {
+        const bool consistent = o.angle_wrap == AngleWrap::consistent;
+        // The feature blocks before the points (when not fused: evaluated already), and their
+        // angle rows about the axis, which join the consistent wrap.
+        if (!plain && !fused)
+          w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
+                              kernel.aligned.data(), kernel.spare);
+        const bool feature_angles = !plain && consistent &&
+                                    w.record_feature_angles(task_, kernel.aligned.data(), measurements_desired.data(),
+                                                            kernel.angles.data());
         // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
         double centre = std::numeric_limits<double>::quiet_NaN();
-        if (o.angle_wrap == AngleWrap::consistent) {
-          const AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
-                                           : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
+        if (consistent) {
+          AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
+                                     : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
+          if (feature_angles) w.add_feature_angles(task_, kernel.angles.data(), sum);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
         out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
         if (!plain) {
-          if (!fused)
-            w.assemble_features(task_, o.jacobian, measurements.data(), measurements_desired.data(),
-                                kernel.aligned.data(), kernel.spare);
+          if (feature_angles && !std::isnan(centre)) w.wrap_feature_angles(task_, kernel.angles.data(), centre);
           w.weigh(task_);
         }
         out.lost_points = lost;

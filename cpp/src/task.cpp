@@ -11,6 +11,7 @@ namespace ibvs {
 Feature::~Feature() = default;
 
 void Feature::align(double*, const double*) const noexcept {}
+std::uint64_t Feature::axis_angle_rows(const double*, const double*) const noexcept { return 0; }
 
 void Feature::error(const double* m, const double* m_desired, double* e) const noexcept {
   double s[64], sd[64];  // the default: s - s*, for blocks of at most 64 rows (others override it)

@@ -380,6 +380,10 @@ class Feature:
         """The block's feature values s (rows,)."""
     def error(self, measurement: _ArrayLike, measurement_desired: _ArrayLike) -> _FloatArray:
         """s (-) s*: the measurement aligned to the goal's, angles wrapped (rows,)."""
+    def axis_angle_rows(self, measurement: _ArrayLike, measurement_desired: _ArrayLike) -> list[int]:
+        """The error rows that are angles about the optical axis at these measurements: they join a Servo's
+        consistent angle wrap (angle_wrap="consistent") with the polar points' theta rows. [] for most kinds;
+        [1] (the azimuth) for a SphericalPolarFeature off the axis."""
     def interaction(self, measurement: _ArrayLike) -> _FloatArray:
         """The interaction matrix L (rows, 6): ds/dt = L v for the camera twist v."""
 
@@ -584,7 +588,8 @@ class Servo:
       max_linear_speed, max_angular_speed  > 0 (m/s, rad/s): the whole twist is scaled by one
                 factor so that |T| and |w| stay within them (direction kept); inf = no limit
       camera    an ibvs.CameraModel for update_pixels (pixels in, twist out), or None
-      angle_wrap  "consistent" (default): the theta differences of one frame are wrapped as one
+      angle_wrap  "consistent" (default): the theta differences of one frame (and the feature blocks'
+                angles about the axis, Feature.axis_angle_rows) are wrapped as one
                 rotation about their circular mean (see feature_error), the mean kept on the
                 previous frame's side of the half-turn while within pi + pi/4 of 0 (reset()
                 forgets it); "per_point": eq. (13) point by point, no memory

@@ -374,6 +374,9 @@ void fuzz_smooth(Bytes& b) {
 // refused), to_bearing / from_bearing on fuzzed pixels and directions (accepted: finite, unit
 // bearings; validate_* throws exactly for what they refuse). The spherical feature blocks are
 // kinds of the task fuzzer below (fuzz_kinds).
+void fuzz_wide_wrap(Bytes& b);
+void spherical_measurement(Bytes& b, double* m);
+
 void fuzz_wide(Bytes& b) {
   std::optional<CameraModel> cam;
   try {
@@ -413,6 +416,53 @@ void fuzz_wide(Bytes& b) {
       threw = true;
     }
     CHECK(threw == !okb);
+  }
+  fuzz_wide_wrap(b);
+}
+
+// The consistent wrap of spherical-polar azimuths (Feature::axis_angle_rows): polar points and
+// spherical-polar blocks on fuzzed bearings (near a common turn about the axis, near the axis, or
+// any), one Servo consistent and one per point on the same frames: both refuse alike; accepted, each
+// angle row of the consistent one is the per-point row or it -/+ 2 pi exactly, every other row equal.
+void fuzz_wide_wrap(Bytes& b) {
+  const int n = b.small(0, 2), blocks = b.small(1, 4);
+  Task task = n > 0 ? Task(Layout::polar(n)) : Task();
+  for (int k = 0; k < blocks; ++k) task.add(SphericalPolarFeature(b.byte() < 200 ? 1e-3 : 0.2));
+  ServoOptions o;
+  o.polar_min_radius = b.byte() < 128 ? 0.0 : 1e-3;
+  Servo consistent(task, o);
+  o.angle_wrap = AngleWrap::per_point;
+  Servo per_point(task, o);
+  ServoInput in(task);
+  ServoOutput oc(task), op(task);
+  for (int frame = 0; frame < 3; ++frame) {
+    const double turn = b.byte() < 128 ? pi + (b.byte() - 127.5) / 1e4 : b.coordinate() * 10.0;
+    const double c = std::cos(turn), s = std::sin(turn);
+    for (int i = 0; i < n; ++i) {
+      in.uv_desired.col(i) << b.coordinate(), b.coordinate();
+      in.uv.col(i) << c * in.uv_desired(0, i) - s * in.uv_desired(1, i) + b.coordinate() / 100.0,
+          s * in.uv_desired(0, i) + c * in.uv_desired(1, i);
+      in.depth(i) = b.depth();
+      in.depth_desired(i) = b.depth();
+    }
+    for (int k = 0; k < blocks; ++k) {
+      double* md = in.measurements_desired.data() + 4 * k;
+      double* m = in.measurements.data() + 4 * k;
+      spherical_measurement(b, md);
+      m[0] = c * md[0] - s * md[1] + (b.byte() < 128 ? 0.0 : b.coordinate());
+      m[1] = s * md[0] + c * md[1];
+      m[2] = md[2];
+      m[3] = b.byte() < 200 ? md[3] : b.depth();
+    }
+    const Status sc = consistent.update(in, oc), sp = per_point.update(in, op);
+    CHECK((sc == Status::invalid_input) == (sp == Status::invalid_input));
+    check_output(oc, sc, o.diagnostics, "Servo(spherical polar, consistent)::update");
+    if (sc == Status::invalid_input) continue;
+    for (Eigen::Index r = 0; r < oc.error.size(); ++r) {
+      const double d = oc.error(r) - op.error(r);
+      ibvs_test::report(d == 0.0 || (r % 2 == 1 && std::abs(std::abs(d) - 2.0 * pi) < 1e-12), "consistent wrap: the same angle",
+                        __FILE__, __LINE__, task.describe() + " row " + std::to_string(r));
+    }
   }
 }
 

@@ -256,6 +256,244 @@ void closed_loops() {
     }
 }
 
+// ---- The consistent wrap of the azimuths (Feature::axis_angle_rows, angle_wrap.hpp) ----
+
+// Rotation about z by a, built from cos/sin as a user would (rotz(pi) is not diag(-1, -1, 1)).
+Pose rotz(double a) {
+  Pose T = Pose::Identity();
+  T(0, 0) = std::cos(a);
+  T(0, 1) = -std::sin(a);
+  T(1, 0) = std::sin(a);
+  T(1, 1) = std::cos(a);
+  return T;
+}
+
+// The camera-frame points of `Pw` seen from camera pose T_wc, as image points (uv, z) and as
+// spherical measurements (4 per point).
+void view(const Eigen::Matrix<double, 3, 4>& Pw, const Pose& T_wc, Points& uv, Eigen::VectorXd& z,
+          Eigen::VectorXd& m) {
+  const Pose T_cw = se3_inverse(T_wc);
+  uv.resize(2, 4);
+  z.resize(4);
+  m.resize(16);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d P = T_cw.topLeftCorner<3, 3>() * Pw.col(i) + T_cw.topRightCorner<3, 1>();
+    uv.col(i) << P.x() / P.z(), P.y() / P.z();
+    z(i) = P.z();
+    const auto mi = measure(P);
+    for (int j = 0; j < 4; ++j) m(4 * i + j) = mi[static_cast<std::size_t>(j)];
+  }
+}
+
+Task spherical_polar_task(int n) {
+  Task task;
+  for (int i = 0; i < n; ++i) task.add(SphericalPolarFeature());
+  return task;
+}
+
+// The exact half-turn about the axis (rotz(pi) from cos/sin): per point the four azimuth errors
+// split (+pi, -pi, ...) and the law throws the camera sideways; the consistent wrap puts them on
+// one branch and commands a pure rotation about z, as IBVS-P does. The same Servo from pi -/+ 0.01,
+// alternating: the first frame's branch is kept (continuity), reset() forgets it.
+void azimuths_half_turn() {
+  const Eigen::Matrix<double, 3, 4> Pw = ibvs_test::square(0.25, 1.0);
+  Points uv, uvd;
+  Eigen::VectorXd z, zd;
+  const Task task = spherical_polar_task(4);
+  ServoInput in(task);
+  view(Pw, Pose::Identity(), uvd, zd, in.measurements_desired);
+  view(Pw, rotz(pi), uv, z, in.measurements);
+  ServoOutput out(task), pp(task);
+  ServoOptions o;
+  o.gain = 1.0;
+  Servo consistent(task, o);
+  o.angle_wrap = AngleWrap::per_point;
+  Servo per_point(task, o);
+  CHECK(consistent.update(in, out) == Status::ok && per_point.update(in, pp) == Status::ok);
+  double lo = pi, hi = -pi, plo = pi, phi = -pi;
+  for (int i = 0; i < 4; ++i) {
+    const double e = out.error(2 * i + 1), ep = pp.error(2 * i + 1);
+    CHECK_NEAR(std::abs(e), pi, 1e-12);
+    lo = std::min(lo, e), hi = std::max(hi, e), plo = std::min(plo, ep), phi = std::max(phi, ep);
+    CHECK(e == ep || std::abs(std::abs(e - ep) - 2 * pi) < 1e-12);  // the same difference, taken the same way round
+    CHECK(out.error(2 * i) == pp.error(2 * i));    // colatitude rows untouched
+  }
+  CHECK(plo < 0.0 && phi > 0.0);  // eq. (13) point by point splits the signs
+  CHECK(hi - lo < 1e-12);         // one branch
+  const double T = out.velocity.head<3>().norm(), wxy = out.velocity.segment<2>(3).norm();
+  ibvs_test::report(T < 1e-9 && wxy < 1e-9 && std::abs(out.velocity(5)) > 0.5, "spherical polar half-turn: pure wz",
+                    __FILE__, __LINE__, "|T| " + std::to_string(T) + " |wxy| " + std::to_string(wxy));
+  CHECK(pp.velocity.head<3>().norm() > 0.5);  // the sideways throw of the per-point wrap
+  for (InteractionMatrix which : {InteractionMatrix::desired, InteractionMatrix::mean}) {  // the unfused path too
+    ServoOptions wo;
+    wo.jacobian = which;
+    Servo other(task, wo);
+    ServoOutput oo(task);
+    CHECK(other.update(in, oo) != Status::invalid_input);
+    CHECK(oo.error == out.error);
+  }
+  // As IBVS-P on the same view: the same twist.
+  ServoOptions po;
+  po.gain = 1.0;
+  Servo polar(Layout::polar(4), po);
+  ServoOutput pout(Layout::polar(4));
+  polar.update(uv, z, uvd, zd, pout);
+  CHECK(std::abs(pout.velocity(5) - out.velocity(5)) < 1e-9 && pout.velocity.head<5>().norm() < 1e-9);
+  // Continuity across pi -/+ 0.01 (the camera turned by pi -/+ 0.01 sees the points turned by -(pi -/+ 0.01)).
+  ServoInput a(task), b(task);
+  view(Pw, Pose::Identity(), uvd, zd, a.measurements_desired);
+  b.measurements_desired = a.measurements_desired;
+  view(Pw, rotz(pi - 0.01), uv, z, a.measurements);
+  view(Pw, rotz(pi + 0.01), uv, z, b.measurements);
+  consistent.reset();  // forget the exact half-turn's branch
+  for (int k = 0; k < 6; ++k) {
+    consistent.update(k % 2 ? b : a, out);
+    for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), k % 2 ? -pi - 0.01 : -pi + 0.01, 1e-9);
+  }
+  consistent.reset();
+  consistent.update(b, out);
+  for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), pi - 0.01, 1e-9);
+  for (int k = 0; k < 4; ++k) {  // per point: each frame's principal value
+    per_point.update(k % 2 ? b : a, pp);
+    CHECK_NEAR(pp.error(1), k % 2 ? pi - 0.01 : -pi + 0.01, 1e-9);
+  }
+}
+
+// Random views (a turn about the axis, near the half-turn too, with tilt and scatter): in one task of
+// polar points and the spherical-polar blocks of the same points, every azimuth error equals its
+// point's theta error (one circular mean over both); the spherical-polar task alone wraps its azimuths
+// into one half-open turn, each the per-point error or it -/+ 2 pi; under per_point every azimuth
+// error is Feature::error's.
+void azimuths_join_the_mean() {
+  std::mt19937_64 rng(ibvs_test::seed);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const Eigen::Matrix<double, 3, 4> Pw = ibvs_test::square(0.25, 1.0);
+  Task mixed(Layout::polar(4));
+  for (int i = 0; i < 4; ++i) mixed.add(SphericalPolarFeature());
+  const Task alone = spherical_polar_task(4);
+  const SphericalPolarFeature f;
+  for (int k = 0; k < ibvs_test::cases; ++k) {
+    const double turn = k % 3 == 0 ? pi + 1e-3 * U(rng) : pi * U(rng);
+    Twist tilt;
+    tilt << 0.05 * U(rng), 0.05 * U(rng), 0.1 * U(rng), 0.1 * U(rng), 0.1 * U(rng), 0.0;
+    Points uv, uvd;
+    Eigen::VectorXd z, zd, m, md;
+    view(Pw, Pose::Identity(), uvd, zd, md);
+    view(Pw, rotz(turn) * se3_exp(tilt), uv, z, m);
+    ServoOptions o;
+    o.polar_min_radius = 0.0;
+    Servo sm(mixed, o), sa(alone, o);
+    ServoOutput om(mixed), oa(alone);
+    CHECK(sm.update(uv, z, uvd, zd, m, md, om) != Status::invalid_input);
+    CHECK(sa.update(Points(2, 0), Eigen::VectorXd(0), Points(2, 0), Eigen::VectorXd(0), m, md, oa) !=
+          Status::invalid_input);
+    double lo = 10, hi = -10;
+    for (int i = 0; i < 4; ++i) {
+      ibvs_test::report(std::abs(om.error(8 + 2 * i + 1) - om.error(2 * i + 1)) < 1e-12,
+                        "azimuth error == its polar point's theta error", __FILE__, __LINE__, std::to_string(turn));
+      double e[2];
+      f.error(m.data() + 4 * i, md.data() + 4 * i, e);
+      const double d = oa.error(2 * i + 1);
+      CHECK(d == e[1] || std::abs(std::abs(d - e[1]) - 2 * pi) < 1e-12);
+      lo = std::min(lo, d), hi = std::max(hi, d);
+    }
+    CHECK(hi - lo < 2 * pi);
+    o.angle_wrap = AngleWrap::per_point;
+    Servo sp(alone, o);
+    sp.update(Points(2, 0), Eigen::VectorXd(0), Points(2, 0), Eigen::VectorXd(0), m, md, oa);
+    for (int i = 0; i < 4; ++i) {
+      double e[2];
+      f.error(m.data() + 4 * i, md.data() + 4 * i, e);
+      CHECK(oa.error(2 * i + 1) == e[1]);
+    }
+  }
+}
+
+// Which rows join: the azimuth only, and only off the axis (current and goal); spread evenly around
+// the circle (resultant below wrap_min_resultant) the per-point wrap is kept.
+void azimuths_which_rows() {
+  const SphericalPolarFeature f;
+  const auto g = measure(Eigen::Vector3d(0.3, 0.1, 1.0)), c = measure(Eigen::Vector3d(-0.2, 0.3, 1.0));
+  const auto near = measure(Eigen::Vector3d(1e-5, 2e-5, 1.0));
+  CHECK(f.axis_angle_rows(c.data(), g.data()) == 2u);
+  CHECK(f.axis_angle_rows(near.data(), g.data()) == 0u && f.axis_angle_rows(g.data(), near.data()) == 0u);
+  CHECK(SphericalPointFeature().axis_angle_rows(c.data(), g.data()) == 0u);
+  CHECK(LineFeature().axis_angle_rows(c.data(), g.data()) == 0u);  // the default: none
+  // Two blocks turned by +pi/2 and -pi/2 (resultant 0): per point; with a block near the axis beside
+  // two at +(pi - 0.1) and one at -(pi - 0.1): the near one keeps its (bx, by) error untouched.
+  const Task two = spherical_polar_task(2);
+  ServoInput in(two);
+  const Eigen::Vector3d P(0.3, 0.0, 1.0);
+  const auto put = [](Eigen::VectorXd& m, int i, const Eigen::Vector3d& Q) {
+    const auto q = measure(Q);
+    for (int j = 0; j < 4; ++j) m(4 * i + j) = q[static_cast<std::size_t>(j)];
+  };
+  const Eigen::Matrix3d up = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  put(in.measurements_desired, 0, P);
+  put(in.measurements_desired, 1, P);
+  put(in.measurements, 0, up * P);
+  put(in.measurements, 1, up.transpose() * P);
+  Servo s2(two);
+  ServoOutput o2(two);
+  s2.update(in, o2);
+  CHECK_NEAR(o2.error(1), pi / 2, 1e-15);
+  CHECK_NEAR(o2.error(3), -pi / 2, 1e-15);
+  const Task four = spherical_polar_task(4);
+  ServoInput in4(four);
+  const Eigen::Matrix3d a = Eigen::AngleAxisd(pi - 0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (int i = 0; i < 4; ++i) put(in4.measurements_desired, i, P);
+  put(in4.measurements, 0, a * P);
+  put(in4.measurements, 1, a * P);
+  put(in4.measurements, 2, a.transpose() * P);
+  put(in4.measurements, 3, Eigen::Vector3d(1e-5, 2e-5, 1.0));
+  Servo s4(four);
+  ServoOutput o4(four);
+  s4.update(in4, o4);
+  CHECK_NEAR(o4.error(1), pi - 0.1, 1e-12);
+  CHECK_NEAR(o4.error(5), pi + 0.1, 1e-12);  // taken the same way round as the other two
+  double e[2];
+  f.error(in4.measurements.data() + 12, in4.measurements_desired.data() + 12, e);
+  CHECK(o4.error(6) == e[0] && o4.error(7) == e[1]);
+}
+
+// Closed loop from the exact half-turn: spherical-polar blocks converge turning about the axis only
+// (the camera centre still), as IBVS-P; per point the camera travels.
+void azimuths_closed_loop() {
+  const Eigen::Matrix<double, 3, 4> Pw = ibvs_test::square(0.25, 1.0);
+  for (AngleWrap w : {AngleWrap::consistent, AngleWrap::per_point}) {
+    const Task task = spherical_polar_task(4);
+    ServoOptions o;
+    o.gain = 1.0;
+    o.angle_wrap = w;
+    Servo servo(task, o);
+    ServoInput in(task);
+    ServoOutput out(task);
+    Points uv, uvd;
+    Eigen::VectorXd z, zd;
+    view(Pw, Pose::Identity(), uvd, zd, in.measurements_desired);
+    Pose T = rotz(pi);
+    double path = 0.0, peak = 0.0;
+    int k = 0;
+    for (; k < 2000; ++k) {
+      view(Pw, T, uv, z, in.measurements);
+      if (servo.update(in, out) == Status::invalid_input) break;
+      if (out.error_norm < 1e-9) break;
+      const Pose next = T * se3_exp(out.velocity / 60.0);
+      path += (next.topRightCorner<3, 1>() - T.topRightCorner<3, 1>()).norm();
+      peak = std::max(peak, out.velocity.head<3>().norm());
+      T = next;
+    }
+    const std::string detail = "frames " + std::to_string(k) + " path " + std::to_string(path) + " m, peak |T| " +
+                               std::to_string(peak) + " m/s";
+    if (w == AngleWrap::consistent)
+      ibvs_test::report(k < 2000 && out.error_norm < 1e-9 && path < 1e-9 && peak < 1e-9,
+                        "spherical polar from rotz(pi): converges turning about z only", __FILE__, __LINE__, detail);
+    else
+      ibvs_test::report(path > 0.1 && peak > 0.5, "per point: the camera is thrown sideways", __FILE__, __LINE__,
+                        detail);
+  }
+}
+
 }  // namespace
 
 void run_tests() {
@@ -264,4 +502,8 @@ void run_tests() {
   refusals();
   stacking();
   closed_loops();
+  azimuths_half_turn();
+  azimuths_join_the_mean();
+  azimuths_which_rows();
+  azimuths_closed_loop();
 }

@@ -68,6 +68,8 @@ def test_spherical_blocks_finite_or_refused(m, md, f, unit):
     try:
         s, e, L = f.value(m), f.error(m, md), f.interaction(m)
         assert np.isfinite(s).all() and np.isfinite(e).all() and np.isfinite(L).all()
+        rows = f.axis_angle_rows(m, md)  # the azimuth row of a spherical-polar block off the axis, else none
+        assert rows in ([], [1]) and (rows == [] or isinstance(f, ibvs.SphericalPolarFeature))
     except ValueError as err:
         assert refused_by_name(err, *(f"measurement[{i}]" for i in range(4)),
                                *(f"measurement_desired[{i}]" for i in range(4)), "measurement",

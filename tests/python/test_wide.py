@@ -90,34 +90,52 @@ def test_spherical_polar_turns_about_the_axis_without_retreat(deg):
     assert o.camera_retreat < 1e-6 and np.abs(tr.pose[:, :3, 3]).max() < 1e-6
 
 
-def test_spherical_polar_half_turn_takes_one_azimuth_on_the_other_branch():
-    """At exactly pi the feature wraps each azimuth error alone: polar with per-point wrapping does the same."""
+def _spherical_polar_per_point() -> ibvs.Servo:
+    task = ibvs.Task()
+    for _ in range(4):
+        task.add(ibvs.SphericalPolarFeature())
+    return ibvs.Servo(task, gain=wide.GAIN, damping=0.0, angle_wrap="per_point")
+
+
+def test_spherical_polar_half_turn_turns_about_the_axis_like_polar():
+    """At exactly pi each feature's own wrap (eq. 13 per point) leaves one azimuth error on the other branch;
+    the Servo's consistent wrap, which the azimuths join, puts all four on one: a pure rotation about the axis,
+    the camera centre still, as with polar. With angle_wrap="per_point" the split stays and throws the camera."""
     T0 = np.asarray(sim.cases.z_rotation().start)
-    servo = wide.make("spherical_polar")
     cam = wide.camera()
     _, m = wide._measure("spherical_polar", cam, wide.in_camera(T0, wide.target_points()))
     _, g = wide._measure("spherical_polar", cam, wide.in_camera(np.eye(4), wide.target_points()))
+    assert ibvs.SphericalPolarFeature().axis_angle_rows(m[:4], g[:4]) == [1]  # the azimuth joins the wrap
     none = np.zeros((0, 2))
-    e = servo.update(none, none[:, 0], none, measurements=m, measurements_desired=g).error[1::2]
+    split = _spherical_polar_per_point().update(none, none[:, 0], none, measurements=m, measurements_desired=g)
+    np.testing.assert_allclose(np.abs(split.error[1::2]), math.pi, rtol=0, atol=1e-12)
+    assert split.error[1::2].min() < 0 < split.error[1::2].max()  # per point: not one branch
+    assert np.linalg.norm(split.velocity[:3]) > 1.0
+    out = wide.make("spherical_polar").update(none, none[:, 0], none, measurements=m, measurements_desired=g)
+    e = out.error[1::2]
     np.testing.assert_allclose(np.abs(e), math.pi, rtol=0, atol=1e-12)
-    assert e.min() < 0 < e.max()  # not one branch
-    sp, _ = wide.run("spherical_polar", T0)
-    assert sp.outcome != "converged" and sp.path_length > 1.0
+    assert e.max() - e.min() < 1e-12  # one branch
+    np.testing.assert_allclose(out.error[0::2], split.error[0::2], rtol=0, atol=0)  # colatitudes untouched
+    assert np.linalg.norm(out.velocity[:5]) < 1e-9 and abs(out.velocity[5]) > 0.5  # a pure rotation about z
+    sp, tr = wide.run("spherical_polar", T0, trace=True)
+    polar, _ = wide.run("polar", T0)
+    for o in (sp, polar):
+        assert o.outcome == "converged" and o.camera_retreat < 1e-6 and o.path_length < 1e-6
+        assert o.final_translation_error < 1e-3 and o.final_rotation_error < 1e-3
+    assert np.abs(tr.pose[:, :3, 3]).max() < 1e-6 and np.abs(tr.twist[:, :5]).max() < 1e-6
     pp, _ = wide.run("polar_per_point", T0)
-    assert (pp.outcome, pp.frames) == (sp.outcome, sp.frames)  # the laws differ (r = tan(beta)): paths within 1 %
-    assert pp.path_length == pytest.approx(sp.path_length, rel=1e-2)
-    consistent, _ = wide.run("polar", T0)
-    assert consistent.outcome == "converged" and consistent.camera_retreat < 1e-6
+    assert pp.outcome != "converged" and pp.path_length > 1.0
 
 
 @pytest.mark.parametrize("rz, tilt, direction", [(178.0, 3.0, 30.0), (160.0, 10.0, 45.0)])
-def test_spherical_polar_fails_where_polar_needs_its_consistent_wrap(rz, tilt, direction):
-    """Near the axis, turned by most of a half-turn: polar converges, polar with per-point wraps and
-    spherical-polar (whose azimuth errors are wrapped per point) do not, and end alike."""
+def test_spherical_polar_converges_where_polar_needs_its_consistent_wrap(rz, tilt, direction):
+    """Near the axis, turned by most of a half-turn: polar and spherical-polar (its azimuths in the
+    consistent wrap) converge without a retreat to speak of; polar with per-point wraps does not."""
     T0 = wide.start_pose(dict(DEFAULTS, rz_deg=rz, tilt_deg=tilt, tilt_dir_deg=direction))
     o = {s: wide.run(s, T0)[0] for s in ("polar", "polar_per_point", "spherical_polar")}
-    assert o["polar"].outcome == "converged" and o["polar"].camera_retreat < 0.05
-    assert o["polar_per_point"].outcome == o["spherical_polar"].outcome != "converged"
+    for s in ("polar", "spherical_polar"):
+        assert o[s].outcome == "converged" and o[s].camera_retreat < 0.05 and o[s].final_rotation_error < 1e-3
+    assert o["polar_per_point"].outcome != "converged"
 
 
 def test_spherical_cartesian_retreats_like_cartesian():

@@ -1,5 +1,10 @@
 // Angle wrap of a layout's polar / cylindrical angle errors (paper eq. 13):
 // point by point, or as one rotation (the consistent wrap, the default).
+// In a Servo, the angle rows of its feature blocks about the optical axis
+// (Feature::axis_angle_rows: a SphericalPolarFeature's azimuth) take part too:
+// their differences, as Feature::error wraps them into (-pi, pi], join the
+// same circular mean and are re-wrapped about the same centre, by the rules
+// below (a block whose row is no angle this frame, near the axis, stays out).
 //
 // Eq. (13) read point by point wraps every difference theta_i - theta*_i into
 // (-pi, pi] on its own. Near a half-turn that depends on the last bit of a
@@ -36,7 +41,8 @@
 
 namespace ibvs {
 
-/// How the angle rows of a layout (polar theta, cylindrical r theta) are wrapped.
+/// How the angle rows of a layout (polar theta, cylindrical r theta) and a task's feature blocks
+/// (Feature::axis_angle_rows) are wrapped.
 enum class AngleWrap : std::uint8_t {
   consistent = 0,  ///< as one rotation: every difference into (phi - pi, phi + pi], phi their circular mean
   per_point = 1,   ///< eq. (13) point by point: every difference into (-pi, pi] on its own

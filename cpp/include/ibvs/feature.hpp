@@ -18,6 +18,8 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
+
 #include <memory>
 #include <string>
 
@@ -53,6 +55,14 @@ class Feature {
   /// by default (for at most 64 rows; larger kinds override it); kinds with
   /// angles wrap their difference into (-pi, pi].
   virtual void error(const double* m, const double* m_desired, double* e) const noexcept;
+  /// The error rows that are angles about the optical axis at these two accepted measurements
+  /// (m aligned to m_desired): bit i set for row i (rows 0..63). The Servo's consistent wrap
+  /// (angle_wrap.hpp, paper eq. 13) takes their differences, as error() gives them in (-pi, pi],
+  /// into its circular mean with the polar and cylindrical points' angles and re-wraps them about
+  /// its centre, so that one rotation about the axis turns every angle the same way (per point
+  /// under AngleWrap::per_point: error() as it is). Only full-turn angles that a rotation w_z
+  /// about the axis moves as -w_z (as the polar theta) belong here. Default: none (0).
+  virtual std::uint64_t axis_angle_rows(const double* m, const double* m_desired) const noexcept;
   /// L (rows() x 6) at an accepted measurement, written into the first rows() rows of L.
   virtual void interaction(const double* m, Eigen::Ref<MatrixX6> L) const noexcept = 0;
 

@@ -63,7 +63,8 @@ struct ServoOptions {
   /// (m/s) and |w| <= max_angular_speed (rad/s). Infinite (off) by default.
   double max_linear_speed = no_limit;
   double max_angular_speed = no_limit;
-  /// Angle errors (polar theta, cylindrical r theta) wrapped as one rotation about their
+  /// Angle errors (polar theta, cylindrical r theta, feature blocks' angles about the axis:
+  /// Feature::axis_angle_rows, e.g. spherical-polar azimuths) wrapped as one rotation about their
   /// circular mean, with frame-to-frame continuity (default), or point by point (eq. 13).
   /// See angle_wrap.hpp for the exact rules.
   AngleWrap angle_wrap = AngleWrap::consistent;
@@ -184,7 +185,8 @@ struct ServoOutput {
 ///
 /// Angle wrap (options.angle_wrap, angle_wrap.hpp): consistent (default) wraps
 /// the theta differences of every polar and cylindrical block that is not a
-/// fallback into (phi - pi, phi + pi] about their circular mean phi; phi is
+/// fallback, and the feature blocks' angle rows about the axis
+/// (Feature::axis_angle_rows), into (phi - pi, phi + pi] about their circular mean phi; phi is
 /// unwrapped against the previous update's while within pi + wrap_hysteresis
 /// of 0, so near the half-turn the branch does not alternate from frame to
 /// frame with the noise. reset() forgets the previous frame (call it when a

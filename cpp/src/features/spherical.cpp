@@ -98,6 +98,12 @@ void SphericalPolarFeature::error(const double* m, const double* md, double* e) 
   e[1] = sbd < min_sin_ ? 0.0 : wrap_angle(polar_angle(b.x(), b.y()) - polar_angle(bd.x(), bd.y()));
 }
 
+std::uint64_t SphericalPolarFeature::axis_angle_rows(const double* m, const double* md) const noexcept {
+  // As error(): the azimuth row is an angle only when neither bearing is within min_sin of the axis.
+  const Eigen::Vector3d b = unit(m), bd = unit(md);
+  return std::hypot(b.x(), b.y()) < min_sin_ || std::hypot(bd.x(), bd.y()) < min_sin_ ? 0 : std::uint64_t{1} << 1;
+}
+
 void SphericalPolarFeature::interaction(const double* m, Eigen::Ref<MatrixX6> L) const noexcept {
   const Eigen::Vector3d b = unit(m);
   const double R = m[3], iR = 1.0 / R, sb = std::hypot(b.x(), b.y());

@@ -112,8 +112,9 @@ def _task(kinds) -> ibvs.Servo:
 
 def make(scheme: str):
     """A servo of `scheme` for the square's four points. polar_per_point: IBVS-P whose theta errors are
-    each wrapped into (-pi, pi] alone (angle_wrap="per_point"), as a SphericalPolarFeature wraps its azimuth;
-    `polar` chooses one branch for all points (the consistent wrap, paper eq. 13)."""
+    each wrapped into (-pi, pi] alone (angle_wrap="per_point"); `polar` chooses one branch for all points
+    (the consistent wrap, paper eq. 13), and so does `spherical_polar` for its azimuths, which join the
+    Servo's consistent wrap (Feature.axis_angle_rows)."""
     if scheme == "polar_per_point":
         return ibvs.Servo(ibvs.Layout.polar(4), gain=GAIN, damping=0.0, angle_wrap="per_point")
     if scheme in PERSPECTIVE:
@@ -589,15 +590,22 @@ def summary(rows: Sequence[Row]) -> list[str]:
                    f"{conv('cartesian')}.")
     h = _find(rows, "paper", "z_rotation", "spherical_polar")
     if h is not None and n and all(any(r.scheme == s for r in gen) for s in ("polar", "polar_per_point")):
-        below = [r for r in rows if r.study == "rotation" and r.scheme == "spherical_polar"
-                 and float(r.start.split()[1]) < 180.0]
-        still = sum(r.reached and r.camera_retreat < 1e-6 for r in below)
-        out.append(f"- Spherical-polar features turn the camera about its axis without retreat (under 1e-6 m) from "
-                   f"{still} of the sweep's {len(below)} angles below 180°, but not at the exact half-turn, where "
-                   f"they end as *{h.outcome.replace('_', ' ')}*; from the random starts they converged "
-                   f"{conv('spherical_polar')} times, about as often as IBVS-P with its θ errors wrapped "
-                   f"per point ({conv('polar_per_point')}), not as IBVS-P ({conv('polar')}): their azimuth errors "
-                   "lack the consistent wrap of paper eq. (13).")
+        sweep = [r for r in rows if r.study == "rotation" and r.scheme == "spherical_polar"]
+        still = sum(r.reached and r.camera_retreat < 1e-6 for r in sweep)
+        half = (f"at the exact half-turn too (path {h.path_length:.0e} m)" if h.reached and h.camera_retreat < 1e-6
+                else f"but not at the exact half-turn, where they end as *{h.outcome.replace('_', ' ')}*")
+        out.append(f"- Spherical-polar features, whose azimuth errors take part in the Servo's consistent wrap (paper "
+                   f"eq. 13) as IBVS-P's θ errors do, turn the camera about its axis without retreat (under 1e-6 m) "
+                   f"from {still} of the sweep's {len(sweep)} angles, {half}; from the random starts they converged "
+                   f"{conv('spherical_polar')} times, IBVS-P {conv('polar')}, IBVS-P with its θ errors wrapped per "
+                   f"point {conv('polar_per_point')}.")
+    if n and any(r.scheme == "spherical_stacked" for r in gen):
+        best = max(SCHEMES, key=lambda s: conv(s))
+        most = "the most of the seven schemes" if best == "spherical_stacked" else f"`{best}` most ({conv(best)})"
+        out.append(f"- Stacked on the sphere (`spherical_stacked`: the bearing and (β, φ) of each point) the features "
+                   f"converged from {conv('spherical_stacked')} of the {n} random starts ({most}), "
+                   f"{conv('spherical_stacked', blind)} of the {len(blind)} unseen ones; median camera retreat over its runs "
+                   f"{_median([r.camera_retreat for r in gen if r.scheme == 'spherical_stacked']):.3f} m.")
     r = _find(rows, "rotation", "rz 150 deg", "spherical")
     c = _find(rows, "rotation", "rz 150 deg", "cartesian")
     if r is not None and c is not None:
@@ -629,45 +637,43 @@ def findings(rows: Sequence[Row]) -> list[str]:
                    + ". The spherical Cartesian features do about as the perspective Cartesian ones "
                    "(both chase each point straight to its goal) and, unlike them, keep going beyond 84°.")
         if all(outs[s] for s in ("polar", "polar_per_point", "spherical_polar")):
-            agree = sum(outs["polar_per_point"][x] == outs["spherical_polar"][x] for x in seen)
+            agree = sum(outs["polar"][x] == outs["spherical_polar"][x] for x in seen)
             fails = [r for r in gen if r.scheme in ("spherical_polar", "spherical_stacked") and not r.converged]
             back = sum(r.outcome == "target_backside" for r in fails)
             near = [x for x in seen if _find(rows, "general", x, "polar").centre_angle_deg < 30.0]
             near_conv = {s: sum(outs[s][x] == "converged" for x in near) for s in ("polar", "polar_per_point",
                                                                                    "spherical_polar")}
-            out.append(f"- **Why the spherical-polar features fail so often**: not the sphere, the wrap. IBVS-P "
-                       f"with its θ errors wrapped per point (`polar_per_point`) — as a `SphericalPolarFeature` "
-                       f"wraps its azimuth error — converges from {on_seen['polar_per_point']} of those "
-                       f"{len(seen)} starts, `spherical_polar` from {on_seen['spherical_polar']}, and the two end "
-                       f"the same way from {agree} of the {len(seen)}; `polar`, whose Servo chooses one branch for "
-                       f"all points (the consistent wrap, paper eq. 13), from {on_seen['polar']}. Near the axis "
-                       f"(the target's centre within 30°, {len(near)} starts, turned by up to 180°) the difference "
-                       f"is the whole story: `polar` {near_conv['polar']}, `polar_per_point` "
-                       f"{near_conv['polar_per_point']}, `spherical_polar` {near_conv['spherical_polar']}: turned "
-                       "by most of a half-turn, some points' errors wrap to the other side of ±π, the points pull "
-                       "different ways and the law throws the camera sideways (tested at two such starts). The "
-                       f"spherical stacked features carry the same azimuth rows: {on_seen['spherical_stacked']} "
-                       f"against the stacked perspective features' {on_seen['stacked']}. {back} of the "
-                       f"{len(fails)} failures of `spherical_polar` and `spherical_stacked` end behind the target's "
-                       f"plane, at a median peak speed of {_median([r.peak_linear_speed for r in fails]):.0f} m/s. "
-                       "Farther off the axis all polar kinds also "
-                       "suffer the weakness the paper finds in IBVS-P for translations: the azimuths of the four "
-                       "points lie close together while the goal's spread round the circle.")
+            out.append(f"- **Spherical-polar features against IBVS-P.** Of the {len(seen)} random starts the "
+                       f"perspective schemes see, `spherical_polar` converged from {on_seen['spherical_polar']}, "
+                       f"`polar` from {on_seen['polar']}, and the two end the same way from {agree}; "
+                       f"`polar_per_point` (IBVS-P with its θ errors wrapped per point) from "
+                       f"{on_seen['polar_per_point']}. Near the axis (the target's centre within 30°, {len(near)} "
+                       f"starts, turned by up to 180°): `polar` {near_conv['polar']}, `spherical_polar` "
+                       f"{near_conv['spherical_polar']}, `polar_per_point` {near_conv['polar_per_point']}: turned by "
+                       "most of a half-turn, errors wrapped point by point fall on both sides of ±π, the points pull "
+                       "different ways and the law throws the camera sideways; one branch for all (the consistent "
+                       "wrap, which the azimuths of the spherical-polar blocks join) turns it (tested at two such "
+                       "starts). The spherical stacked features carry the same azimuth rows: "
+                       f"{on_seen['spherical_stacked']} against the stacked perspective features' "
+                       f"{on_seen['stacked']}. {back} of the {len(fails)} failures of `spherical_polar` and "
+                       "`spherical_stacked` end behind the target's plane, at a median peak speed of "
+                       f"{_median([r.peak_linear_speed for r in fails]):.0f} m/s. Farther off the axis all polar "
+                       "kinds suffer the weakness the paper finds in IBVS-P for translations: the azimuths of the "
+                       "four points lie close together while the goal's spread round the circle.")
     h = {s: _find(rows, "paper", "z_rotation", s) for s in SCHEMES}
-    sp, pl = h.get("spherical_polar"), h.get("polar")
-    if sp is not None and pl is not None:
+    sp, pl, pp = h.get("spherical_polar"), h.get("polar"), h.get("polar_per_point")
+    if sp is not None and pl is not None and pp is not None:
         out.append(f"- **The half-turn with spherical-polar features** (the paper's z-rotation of exactly π): "
-                   f"`polar` turns the camera about its axis without retreat ({pl.camera_retreat:.1e} m, path "
-                   f"{pl.path_length:.1e} m); `spherical_polar` ends as *{sp.outcome.replace('_', ' ')}* after "
-                   f"{sp.path_length:.1f} m at up to {sp.peak_linear_speed:.0f} m/s. At exactly π the four azimuth "
-                   "errors are ±π, and rounding puts one of them on the other branch (−π): the feature wraps each "
-                   "point's error on its own (wrap_angle), where the Servo's polar layout chooses one branch for "
-                   "all points (the consistent wrap, paper eq. 13). `polar_per_point` (IBVS-P with "
-                   "`angle_wrap=\"per_point\"`) does the same (tested). A hair away from π, at 179.9° and 180.1°, "
-                   "and at every angle of the "
-                   "sweep below 180°, `spherical_polar` turns the camera about its axis with no retreat and no "
-                   "sideways motion (under 1e-6 m, tested), like `polar`: the polar idea lifts to the sphere, the "
-                   "consistent wrap does not yet reach its azimuth blocks.")
+                   f"`polar` ends as *{pl.outcome.replace('_', ' ')}* (retreat {pl.camera_retreat:.1e} m, path "
+                   f"{pl.path_length:.1e} m), `spherical_polar` as *{sp.outcome.replace('_', ' ')}* (retreat "
+                   f"{sp.camera_retreat:.1e} m, path {sp.path_length:.1e} m), `polar_per_point` as "
+                   f"*{pp.outcome.replace('_', ' ')}* after {pp.path_length:.1f} m at up to "
+                   f"{pp.peak_linear_speed:.0f} m/s. At exactly π the four azimuth errors are ±π, and each wrapped "
+                   "on its own (`SphericalPolarFeature.error`, eq. 13 read point by point) one of them rounds to "
+                   "the other branch (−π); the Servo takes the azimuth rows (`Feature.axis_angle_rows`) into the "
+                   "circular mean of its consistent wrap with the polar points' θ rows and re-wraps them about it, "
+                   "so all four lie on one branch and the law commands a pure rotation about the axis (tested; "
+                   "with `angle_wrap=\"per_point\"` the split stays, as in `polar_per_point`).")
     rot = {s: _find(rows, "rotation", "rz 150 deg", s) for s in SCHEMES}
     if all(rot.get(s) for s in ("cartesian", "spherical", "stacked", "spherical_stacked")):
         gone = sum(not r.in_view for r in rows if r.scheme in SPHERICAL)
@@ -710,10 +716,11 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "camera); gain 1, damping 0, exact depths, 60 frames/s, 30 s. Every scheme measures the target's pixels "
         "through the lens model: the perspective schemes (`cartesian`, `polar`, `stacked`, the Layouts of "
         "ibvs.study.schemes, and `polar_per_point`, IBVS-P with `angle_wrap=\"per_point\"`: each point's θ error "
-        "wrapped on its own, as a spherical-polar block wraps its azimuth) normalise them with "
+        "wrapped on its own, eq. 13 read point by point) normalise them with "
         "`CameraModel.normalize`, (x, y) = (X/Z, Y/Z); the spherical ones "
         "lift them to bearings with `ibvs.spherical_measurements` and servo four `SphericalPointFeature` blocks "
-        "(`spherical`, 12 rows), four `SphericalPolarFeature` blocks (`spherical_polar`, 8 rows) or both per point "
+        "(`spherical`, 12 rows), four `SphericalPolarFeature` blocks (`spherical_polar`, 8 rows; their azimuth "
+        "errors take part in the Servo's consistent wrap, as `polar`'s θ errors) or both per point "
         "(`spherical_stacked`, 20 rows). Random starts: rotation about the axis 0–180°, tilt 0–100° in a uniform "
         "direction, translation ±0.2, ±0.2, ±0.5 m (starts with a point beyond the lens's circle are drawn again). "
         "The loop is the simulator's for a free camera (the twist held for a frame, its stopping rules: diverged, "

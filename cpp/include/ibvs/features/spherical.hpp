@@ -27,11 +27,20 @@
 // ICRA 2010, eq. (11) (MVTB's SphericalCamera.visjac_p / IBVS_sph: longitude
 // phi row first, then colatitude theta), in the same twist convention; for a
 // small beta they tend to the paper's -(eq. 7) rows of (r, theta). The azimuth
-// error is wrapped into (-pi, pi] (wrap_angle). Near the axis (sin beta below
+// error is wrapped into (-pi, pi] (wrap_angle, eq. 13) by error(), and it is
+// an angle about the optical axis (axis_angle_rows: row 1): in a Servo with
+// AngleWrap::consistent (the default) the azimuth errors of all the task's
+// spherical-polar blocks join the polar / cylindrical points' angles in one
+// circular mean and are re-wrapped about it (angle_wrap.hpp), so an exact
+// half-turn about the axis gives four azimuth errors on one branch (all +pi
+// or all -pi), not (+pi, -pi, +pi, +pi) and a sideways throw; with
+// AngleWrap::per_point each keeps its own wrap. Near the axis (sin beta below
 // min_sin, default 1e-3) the azimuth is ill-defined: a current bearing there
 // uses the rows (bx, by) of the spherical point instead (error and
 // interaction alike, as a polar point block falls back to its Cartesian rows),
-// and a goal there has no azimuth to reach: the azimuth error is 0.
+// and a goal there has no azimuth to reach: the azimuth error is 0. In both
+// cases the row is no angle and stays out of the consistent wrap (as a polar
+// point that falls back).
 //
 // Refused: non-finite entries, |b| not 1 to 1e-6, R outside [min_depth,
 // max_depth].
@@ -72,6 +81,8 @@ class SphericalPolarFeature final : public Feature {
   /// (colatitude, azimuth); (bx, by) near the axis.
   void value(const double* m, double* s) const noexcept override;
   void error(const double* m, const double* m_desired, double* e) const noexcept override;
+  /// Row 1 (the azimuth) when both bearings are at least min_sin off the axis; else none.
+  std::uint64_t axis_angle_rows(const double* m, const double* m_desired) const noexcept override;
   void interaction(const double* m, Eigen::Ref<MatrixX6> L) const noexcept override;
 
  private:
