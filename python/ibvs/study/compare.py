@@ -45,7 +45,7 @@ import numpy as np
 import ibvs
 
 from .. import sim
-from . import schemes
+from . import output, schemes
 from .scenario import DEFAULT_RANGES, DEFAULTS, Scenario, offset
 
 #: The schemes compared, in table order.
@@ -561,29 +561,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = p.parse_args(argv)
     if not 2 <= args.rotations <= 181 or not 0 <= args.general <= 10000:
         p.error("--rotations must be in [2, 181] and --general in [0, 10000]")
-    root = Path(__file__).resolve().parents[3]
-    if args.docs and not (root / "mkdocs.yml").is_file():
-        p.error(f"--docs: {root} is not the ibvs repository (run from a source checkout)")
+    docs = output.docs_dir(p, args.docs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     keep: dict = {}
     rows = study(args.rotations, args.general, args.seed, keep=keep)
     seconds = time.perf_counter() - t0
-    import csv
-
-    with open(out / "compare.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(asdict(rows[0])))
-        w.writeheader()
-        w.writerows(asdict(r) for r in rows)
-    targets = [out]
-    if args.docs:
-        targets.append(root / "docs")
-    for d in targets:
-        fig_dir = d / "figures"
-        fig_dir.mkdir(parents=True, exist_ok=True)
-        names = figures(rows, keep, fig_dir)
-        (d / "compare.md").write_text(page(rows, names, args.rotations, args.general, seconds))
+    output.write(rows, out, docs, "compare.csv", "compare.md", lambda d: figures(rows, keep, d),
+                 lambda names: page(rows, names, args.rotations, args.general, seconds))
     print(table(rows))
     print(f"{len(rows)} runs in {seconds:.0f} s; written to {out}" + (" and docs/" if args.docs else ""))
     return 0
