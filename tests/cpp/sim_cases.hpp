@@ -78,4 +78,17 @@ struct StackedGantry final : Robot {
 inline JointVector stacked_start() { return (JointVector(7) << gantry_start(), 0.0).finished(); }
 inline JointVector stacked_goal() { return (JointVector(7) << gantry_goal(), 0.0).finished(); }
 
+/// Episode options with a duration (s) and a convergence tolerance, the rest default.
+inline EpisodeOptions opts(double duration, double tolerance) {
+  EpisodeOptions o;
+  o.duration = duration;
+  o.tolerance = tolerance;
+  return o;
+}
+
+/// Frame k's world <- camera pose of a recorded episode.
+inline Pose row_pose(const History& h, int k) {
+  return Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(h.pose.row(k).data());
+}
+
 }  // namespace sim_cases

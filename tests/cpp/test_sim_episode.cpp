@@ -16,13 +16,6 @@ using namespace sim_cases;
 
 namespace {
 
-EpisodeOptions opts(double duration, double tolerance) {
-  EpisodeOptions o;
-  o.duration = duration;
-  o.tolerance = tolerance;
-  return o;
-}
-
 Servo servo(const Layout& L, double gain = 1.0) {
   ServoOptions o;
   o.gain = gain;

@@ -43,17 +43,6 @@ Target with_edges(Target t) {
   return t;
 }
 
-EpisodeOptions opts(double duration, double tolerance) {
-  EpisodeOptions o;
-  o.duration = duration;
-  o.tolerance = tolerance;
-  return o;
-}
-
-Pose row_pose(const History& h, int k) {
-  return Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(h.pose.row(k).data());
-}
-
 // (A, B, C) of 1/Z = A x + B y + C through three camera-frame points: solved from the three
 // points' (x, y, 1/Z), independently of plane_in_camera's formula.
 Eigen::Vector3d plane_through(const Eigen::Matrix3d& P) {

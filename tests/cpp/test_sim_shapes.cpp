@@ -39,17 +39,6 @@ Target with_segments(Target t) {
   return t;
 }
 
-EpisodeOptions opts(double duration, double tolerance) {
-  EpisodeOptions o;
-  o.duration = duration;
-  o.tolerance = tolerance;
-  return o;
-}
-
-Pose row_pose(const History& h, int k) {
-  return Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(h.pose.row(k).data());
-}
-
 // n points on the rim of a circle of radius r about the target's origin, in its z = 0 plane.
 Eigen::Matrix3Xd rim(double r, int n) {
   Eigen::Matrix3Xd P(3, n);
