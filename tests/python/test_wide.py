@@ -1,4 +1,4 @@
-"""The wide-field study (ibvs.study.wide): its loop against the simulator, what a perspective feature
+"""The wide-field study (ibvs.study.wide): its runs are the simulator's, what a perspective feature
 cannot see, the spherical features from there, the half-turn with spherical-polar features, and the
 page `ibvs wide` writes."""
 
@@ -23,23 +23,44 @@ def start(**p) -> np.ndarray:
     return offset(dict(DEFAULTS, **p))
 
 
-@pytest.mark.parametrize("scheme", ["cartesian", "polar", "stacked"])
-def test_the_loop_reproduces_the_simulator(scheme):
-    """On the perspective schemes the study's loop is ibvs.sim.run's free camera, frame for frame."""
+def _direct(scheme: str) -> tuple[ibvs.Servo, sim.Target]:
+    """The servo and target of `scheme` made here, apart from ibvs.study.wide."""
+    if scheme in ("cartesian", "polar", "stacked"):
+        return schemes.make(scheme, wide.GAIN, 4), sim.Target.paper()
+    kinds = {"spherical": [ibvs.SphericalPointFeature], "spherical_stacked": [ibvs.SphericalPointFeature,
+                                                                               ibvs.SphericalPolarFeature]}[scheme]
+    task, sources = ibvs.Task(), []
+    for i in range(4):
+        for k in kinds:
+            task.add(k())
+            sources.append(sim.SphericalSource(i))
+    return ibvs.Servo(task, gain=wide.GAIN, damping=0.0), sim.Target.paper().with_features(sources)
+
+
+@pytest.mark.parametrize("scheme, tilt", [("cartesian", 25.0), ("polar", 25.0), ("stacked", 25.0),
+                                          ("spherical", 25.0), ("spherical_stacked", 25.0), ("spherical", 100.0)])
+def test_a_run_is_the_simulators(scheme, tilt):
+    """A run of the study is ibvs.sim.run's free camera (the study has no loop of its own): the same
+    frames, twists and metrics as a direct call; the retreat as a distance from the poses. tilt 100: the
+    target behind the image plane, in the lens's view (judged by its image circle)."""
     cam = wide.camera()
-    T0 = start(rz_deg=60.0, tilt_deg=25.0, tilt_dir_deg=30.0, tx=0.1, ty=-0.05, tz=-0.3)
+    T0 = wide.start_pose(dict(DEFAULTS, rz_deg=60.0, tilt_deg=tilt, tilt_dir_deg=30.0, tx=0.1, ty=-0.05, tz=-0.3))
     o, tr = wide.run(scheme, T0, cam, trace=True)
-    r = sim.run(schemes.make(scheme, wide.GAIN), cam, sim.Target.paper(), T0, np.eye(4), duration=wide.DURATION,
-                depth="exact", tolerance=wide.TOLERANCE)
+    servo, target = _direct(scheme)
+    r = sim.run(servo, cam, target, T0, np.eye(4), duration=wide.DURATION, depth="exact", tolerance=wide.TOLERANCE)
     assert o.outcome == r.status.outcome == "converged"
     assert o.frames == r.metrics.frames_to_converge + 1 == len(r.history.twist)
-    np.testing.assert_allclose(tr.twist, r.history.twist, rtol=0, atol=1e-7)
-    np.testing.assert_allclose(tr.pose, r.history.pose, rtol=0, atol=1e-9)
-    assert o.path_length == pytest.approx(r.metrics.path_length, rel=1e-9)
-    assert o.axial_retreat == pytest.approx(r.metrics.camera_retreat, abs=1e-9)
-    assert o.peak_linear_speed == pytest.approx(r.metrics.peak_commanded_linear_speed, rel=1e-7)
-    assert o.peak_angular_speed == pytest.approx(r.metrics.peak_commanded_angular_speed, rel=1e-7)
-    assert o.final_translation_error == pytest.approx(r.metrics.final_translation_error, abs=1e-9)
+    np.testing.assert_array_equal(tr.twist, r.history.twist)
+    np.testing.assert_array_equal(tr.pose, r.history.pose)
+    assert o.path_length == r.metrics.path_length and o.axial_retreat == r.metrics.camera_retreat
+    assert o.peak_linear_speed == r.metrics.peak_commanded_linear_speed
+    assert o.peak_angular_speed == r.metrics.peak_commanded_angular_speed
+    assert o.final_translation_error == r.metrics.final_translation_error < 1e-3
+    centre = np.array([0.0, 0.0, 3.0])
+    d = [np.linalg.norm(T[:3, 3] - centre) for T in r.history.pose]
+    assert o.camera_retreat == pytest.approx(max(d) - d[0], abs=1e-12)
+    if tilt > 90:
+        assert wide.cannot_see(T0) and wide.run("cartesian", T0)[0].outcome == "cannot_see"
 
 
 def test_the_lens_sees_110_degrees_off_the_axis():

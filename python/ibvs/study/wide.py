@@ -19,10 +19,10 @@ point at 90 degrees or more off the axis has no normalised coordinates, and ibvs
 Per run: converged (error norm under TOLERANCE), reached (within 1 mm and 1 mrad of the goal), stayed
 in view, camera retreat, path length, peak speeds of the commanded twist.
 
-The loop is the simulator's (ibvs.sim.run) for a free-flying camera — the twist held for a frame,
-T <- T exp(v dt), the same stopping rules — written here in Python because the simulator measures
-perspective points only (it ends a run when a point's depth falls below 1 mm);
-tests/python/test_wide.py checks that it reproduces ibvs.sim.run on the perspective schemes.
+Every run is an ibvs.sim.run episode of a free-flying camera (simulate()): the simulator judges a
+point in the lens's view by its image circle, whatever the sign of its depth, and feeds the spherical
+blocks the bearings of the measured pixels (sim.SphericalSource). A perspective scheme's start with a
+point outside its domain is not run ("cannot_see").
 """
 
 from __future__ import annotations
@@ -46,8 +46,8 @@ from .scenario import DEFAULTS, offset
 __all__ = ["ANGLE_BINS", "DURATION", "FPS", "GAIN", "HALF_FOV", "NAMES", "PERSPECTIVE", "PERSPECTIVE_LIMIT",
            "PINHOLE_HALF_FOV", "RANGES", "REACHED", "SCHEMES", "SENSOR", "SPHERICAL", "TOLERANCE", "Outcome", "Row",
            "Trace", "angle_table", "camera", "cannot_see", "case_table", "figures", "findings", "in_camera", "main",
-           "make", "off_axis", "page", "perspective_sees", "run", "sample", "start_pose", "starts", "starts_table",
-           "study", "summarise", "summary", "table", "target_points"]
+           "make", "off_axis", "page", "perspective_sees", "run", "sample", "sim_target", "simulate", "start_pose",
+           "starts", "starts_table", "study", "summarise", "summary", "table", "target_points"]
 
 #: The lens's half field of view (radians): its image circle.
 HALF_FOV = math.radians(110.0)
@@ -66,7 +66,7 @@ REACHED = (1e-3, 1e-3)
 PERSPECTIVE_LIMIT = 10.0
 
 #: The simulator's stopping rules: diverged beyond MAX_DISTANCE_RATIO times the start distance to the target
-#: or MAX_ERROR_RATIO times the start error norm; collision within STANDOFF times the goal depth of its centre.
+#: or MAX_ERROR_RATIO times the start error norm; collision within STANDOFF times the goal depth of the plate.
 MAX_DISTANCE_RATIO = 10.0
 MAX_ERROR_RATIO = 100.0
 STANDOFF = 0.05
@@ -85,7 +85,7 @@ NAMES = {"cartesian": "IBVS (x, y)", "polar": "IBVS-P (r, θ)", "polar_per_point
          "spherical_polar": "spherical-polar (β, φ)",
          "spherical_stacked": "spherical stacked (b, β, φ)"}
 #: Outcomes that mean a point went out of the features' domain.
-OUT_OF_VIEW = ("left_image", "left_perspective")
+OUT_OF_VIEW = ("left_image", "left_perspective", "behind_camera", "lost_feature")
 
 
 def camera() -> ibvs.CameraModel:
@@ -175,7 +175,8 @@ class Outcome:
 
 
 def _measure(scheme: str, cam, P: np.ndarray):
-    """(pixels, the servo's inputs) of camera-frame points P through the lens."""
+    """(pixels, the servo's inputs) of camera-frame points P through the lens (what the simulator feeds
+    the servo: normalised points and depths, or for the spherical schemes the bearings and distances)."""
     pixels = cam.from_bearing(P)
     if scheme in PERSPECTIVE:
         return pixels, (cam.normalize(pixels), P[:, 2].copy())
@@ -183,19 +184,40 @@ def _measure(scheme: str, cam, P: np.ndarray):
     return pixels, (np.repeat(m, 2, axis=0) if scheme == "spherical_stacked" else m).ravel()
 
 
+def sim_target(scheme: str) -> sim.Target:
+    """The paper's square as the simulator's Target for `scheme`: its points for the perspective schemes,
+    with one sim.SphericalSource per block of the spherical schemes (a point's bearing and distance)."""
+    t = sim.Target.paper()
+    if scheme in PERSPECTIVE:
+        return t
+    per_point = 2 if scheme == "spherical_stacked" else 1
+    return t.with_features([sim.SphericalSource(i) for i in range(4) for _ in range(per_point)])
+
+
+def simulate(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, duration: float = DURATION,
+             tolerance: float = TOLERANCE) -> sim.Result:
+    """The ibvs.sim.run episode of `scheme` from `start` to the goal (the identity), with the study's
+    gain, exact depths, tolerance and the simulator's stopping rules at their defaults (diverged beyond
+    MAX_DISTANCE_RATIO times the target's start distance or MAX_ERROR_RATIO times the start error norm,
+    collision within STANDOFF times the goal depth)."""
+    return sim.run(make(scheme), cam or camera(), sim_target(scheme), start, np.eye(4), duration=duration,
+                   depth="exact", tolerance=tolerance, max_depth_ratio=MAX_DISTANCE_RATIO,
+                   max_error_ratio=MAX_ERROR_RATIO, standoff_ratio=STANDOFF)
+
+
 def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, duration: float = DURATION,
         tolerance: float = TOLERANCE, trace: bool = False):
-    """One free-camera run of `scheme` from `start` (4x4 world <- camera) to the goal (the identity).
+    """One free-camera run of `scheme` from `start` (4x4 world <- camera) to the goal (the identity):
+    ibvs.sim.run (simulate()), or for a perspective scheme whose start has a point outside the
+    perspective domain (perspective_sees) "cannot_see", not run.
 
-    Returns (Outcome, Trace or None). The rules of ibvs.sim.run, in its order per frame: diverged when
-    the distance to the target's centre exceeds MAX_DISTANCE_RATIO times its start value; collision
-    or target_backside (the camera within STANDOFF of the target or behind its plane); left_image
-    when a point is beyond the lens's circle (HALF_FOV); for the perspective schemes left_perspective
-    when a point leaves their domain (perspective_sees; cannot_see at frame 0: not run); converged when the error norm
-    is below tolerance; singular, diverged (error norm beyond MAX_ERROR_RATIO times its start) or
-    timeout. camera_retreat: the largest increase of the camera's distance to the target's centre over
-    its start value (the simulator's retreat is along the optical axis, which is meaningless when the
-    target starts beside or behind the camera: that one is axial_retreat)."""
+    Returns (Outcome, Trace or None). The outcome is the simulator's (ibvs.sim.OUTCOMES), except
+    "left_perspective" for a perspective scheme's run that ends as "diverged" with a point outside the
+    perspective domain (ibvs.Servo refuses it: invalid_input, which the simulator reports as diverged); frames the
+    number of frames the servo ran; camera_retreat the largest increase of the camera's distance to
+    the target's centre over its start value (the simulator's retreat, axial_retreat, is along the
+    optical axis, which is meaningless when the target starts beside or behind the camera); path
+    length, peak commanded speeds and final errors from ibvs.sim.Metrics."""
     start = np.asarray(start, dtype=float)
     if start.shape != (4, 4) or not np.isfinite(start).all():
         raise ValueError(f"start must be a finite 4x4 pose (world <- camera), got shape {start.shape}")
@@ -205,88 +227,32 @@ def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, 
         raise ValueError("start must be a rigid transform (rotation, translation within 1 km, last row 0 0 0 1)")
     if not (isinstance(duration, (int, float)) and 0 < duration <= 3600):
         raise ValueError(f"duration must be in (0, 3600] seconds, got {duration!r}")
+    make(scheme)  # refuses an unknown scheme
     cam = cam or camera()
-    points = target_points()
-    centre = points.mean(axis=0)
-    goal = np.eye(4)
-    servo = make(scheme)
-    spherical = scheme in SPHERICAL
-    _, want = _measure(scheme, cam, in_camera(goal, points))
-    frames = int(round(duration * cam.fps))
-    dt = 1.0 / cam.fps
-    standoff = STANDOFF * in_camera(goal, centre[None])[0, 2]
-    T = np.array(start, dtype=float)
-    both = np.vstack([points, centre])  # the points, then the centre
-    cos_fov = math.cos(HALF_FOV)
-    none = np.zeros((0, 2))
-    poses, twists, pixel_log, norms = [], [], [], []
-    d0 = a0 = e0 = 0.0
-    retreat = axial = path = 0.0
-    outcome, k = "timeout", 0
-    for k in range(frames):
-        Q = (both - T[:3, 3]) @ T[:3, :3]  # camera frame
-        P = Q[:4]
-        d = math.sqrt(Q[4] @ Q[4])
-        if k == 0:
-            d0, a0 = d, Q[4, 2]
-        retreat, axial = max(retreat, d - d0), max(axial, Q[4, 2] - a0)
-        if trace:
-            poses.append(T.copy())
-        if not (d <= MAX_DISTANCE_RATIO * d0):  # also NaN
-            outcome = "diverged"
-            break
-        if T[2, 3] >= centre[2]:
-            outcome = "target_backside"
-            break
-        if d < standoff:
-            outcome = "collision"
-            break
-        if (P[:, 2] <= cos_fov * np.sqrt((P * P).sum(axis=1))).any():  # at or beyond HALF_FOV
-            outcome = "left_image"
-            break
-        if not spherical and not perspective_sees(P):
-            outcome = "cannot_see" if k == 0 else "left_perspective"
-            break
-        pixels, got = _measure(scheme, cam, P)
-        if spherical:
-            r = servo.update(none, none[:, 0], none, measurements=got, measurements_desired=want)
-        else:
-            r = servo.update(got[0], got[1], want[0], want[1])
-        v, e, status = r.velocity, r.error_norm, r.status
-        twists.append(v)
-        if trace:
-            pixel_log.append(pixels)
-            norms.append(e)
-        if k == 0:
-            e0 = e
-        if status == ibvs.Status.invalid_input or not (math.isfinite(e) and np.isfinite(v).all()):
-            outcome = "diverged"
-            break
-        if e < tolerance:
-            outcome = "converged"
-            break
-        if status == ibvs.Status.singular:
-            outcome = "singular"
-            break
-        if e > MAX_ERROR_RATIO * e0:
-            outcome = "diverged"
-            break
-        if k == frames - 1:
-            break
-        T_next = T @ ibvs.se3_exp(v * dt)
-        step = T_next[:3, 3] - T[:3, 3]
-        path += math.sqrt(step @ step)
-        T = T_next
-    tw = np.asarray(twists).reshape(-1, 6)
-    cos = (np.trace(T[:3, :3]) - 1.0) / 2.0
-    out = Outcome(outcome, k + 1, retreat, axial, path,
-                  float(np.max(np.linalg.norm(tw[:, :3], axis=1))) if len(tw) else 0.0,
-                  float(np.max(np.linalg.norm(tw[:, 3:], axis=1))) if len(tw) else 0.0,
-                  float(np.linalg.norm(T[:3, 3])),
-                  math.acos(min(1.0, max(-1.0, cos))) if np.isfinite(cos) else math.nan)
+    if scheme in PERSPECTIVE and cannot_see(start):
+        out = Outcome("cannot_see", 0, 0.0, 0.0, 0.0, 0.0, 0.0, float(np.linalg.norm(start[:3, 3])),
+                      _angle(start[:3, :3]))
+        return out, (Trace(start[None], np.zeros((0, 6)), np.zeros((0, 4, 2)), np.zeros(0)) if trace else None)
+    r = simulate(scheme, start, cam, duration, tolerance)
+    h, m = r.history, r.metrics
+    pose = np.asarray(h.pose)
+    centre = target_points().mean(axis=0)
+    d = np.linalg.norm(pose[:, :3, 3] - centre, axis=1)
+    outcome = r.status.outcome
+    if scheme in PERSPECTIVE and outcome == "diverged" and not perspective_sees(in_camera(pose[-1], target_points())):
+        outcome = "left_perspective"  # the Servo refused a point beyond its domain (invalid_input: "diverged")
+    out = Outcome(outcome, len(h.twist), float(max(0.0, (d - d[0]).max())), float(m.camera_retreat),
+                  float(m.path_length), float(m.peak_commanded_linear_speed), float(m.peak_commanded_angular_speed),
+                  float(m.final_translation_error), float(m.final_rotation_error))
     if not trace:
         return out, None
-    return out, Trace(np.asarray(poses), tw, np.asarray(pixel_log).reshape(-1, 4, 2), np.asarray(norms))
+    pixels = np.stack([cam.from_bearing(in_camera(T, target_points())) for T in pose[:len(h.twist)]]) \
+        if len(h.twist) else np.zeros((0, 4, 2))
+    return out, Trace(pose, np.asarray(h.twist).reshape(-1, 6), pixels, np.asarray(h.error_norm))
+
+
+def _angle(R: np.ndarray) -> float:
+    return math.acos(min(1.0, max(-1.0, (np.trace(R) - 1.0) / 2.0)))
 
 
 @dataclass(frozen=True)
@@ -691,10 +657,24 @@ def findings(rows: Sequence[Row]) -> list[str]:
                + ". The polar kinds' peaks come from the wide starts, where their laws throw the camera sideways; "
                "a robot would clip them (ibvs.Servo's max_linear_speed / max_angular_speed), which changes their "
                "paths.")
+    out.append(_collisions(rows))
     out.append("- Not in this study: image noise, depth estimation (the depths and distances are exact), speed "
                "limits, a lens with distortion (the model is exact here), Mei's omnidirectional model, and images "
-               "rendered through the lens (the renderer does not draw through a fisheye yet).")
+               "rendered through the lens (the renderer draws them: docs/wide.md servoes one episode on them).")
     return out
+
+
+def _collisions(rows: Sequence[Row]) -> str:
+    """The bullet of "What shows" on the collisions: how many per scheme."""
+    hit = [r for r in rows if r.outcome == "collision"]
+    if not hit:
+        return "- **Collisions.** No run collides."
+    per = {s: sum(r.scheme == s for r in hit) for s in SCHEMES}
+    return (f"- **Collisions.** {len(hit)} runs collide (" + ", ".join(f"`{s}` {n}" for s, n in per.items() if n)
+            + "); an earlier "
+            "version of this page, whose Python loop measured the standoff from the square's centre and called "
+            "every crossing of its plane target backside, counted most of them (those that pass by the plate's "
+            "edge) as converged and those that go through the plate as target backside.")
 
 
 def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, general: int, seed: int,
@@ -723,10 +703,16 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "errors take part in the Servo's consistent wrap, as `polar`'s θ errors) or both per point "
         "(`spherical_stacked`, 20 rows). Random starts: rotation about the axis 0–180°, tilt 0–100° in a uniform "
         "direction, translation ±0.2, ±0.2, ±0.5 m (starts with a point beyond the lens's circle are drawn again). "
-        "The loop is the simulator's for a free camera (the twist held for a frame, its stopping rules: diverged, "
-        "collision, target backside, out of view, converged, singular, timeout), in Python because ibvs.sim measures "
-        "perspective points only; tests/python/test_wide.py checks that it reproduces `ibvs.sim.run` frame for "
-        "frame on the perspective schemes.",
+        "Every run is an `ibvs.sim.run` episode of a free camera (the twist held for a frame; its stopping rules: "
+        "diverged, collision, target backside, left image, converged, singular, timeout); for this lens the "
+        "simulator judges a point in view by the lens's image circle, whatever the sign of its depth, and feeds "
+        "the spherical blocks the bearings of the measured pixels (`sim.SphericalSource`); "
+        "tests/python/test_wide.py checks that a run equals a direct `ibvs.sim.run` call. *Collision* is the "
+        f"simulator's: the camera through the plate or within {STANDOFF * 3.0:.2f} m of it (the disc about the "
+        "square's centre through its corners; target backside: behind its plane beyond it). "
+        "A perspective run the Servo refuses because a point went beyond |x|, |y| = 10 "
+        "(`Status.invalid_input`, which the simulator reports as diverged) is counted as having left the "
+        "perspective domain.",
         "",
         "**Columns.** *converged*: the task's error norm under "
         f"{TOLERANCE:g} within 30 s (each task in its own units); *reached goal*: the camera within 1 mm and 1 mrad "
