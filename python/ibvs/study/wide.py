@@ -30,7 +30,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -39,7 +39,7 @@ import numpy as np
 import ibvs
 
 from .. import sim
-from . import schemes
+from . import output, schemes
 from .compare import wrap
 from .scenario import DEFAULTS, offset
 
@@ -776,27 +776,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = p.parse_args(argv)
     if not 2 <= args.rotations <= 181 or not 0 <= args.general <= 100000 or args.seed < 0:
         p.error("--rotations must be in [2, 181], --general in [0, 100000] and --seed >= 0")
-    root = Path(__file__).resolve().parents[3]
-    if args.docs and not (root / "mkdocs.yml").is_file():
-        p.error(f"--docs: {root} is not the ibvs repository (run from a source checkout)")
+    docs = output.docs_dir(p, args.docs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     keep: dict = {}
     rows = study(args.rotations, args.general, args.seed, keep=keep)
     seconds = time.perf_counter() - t0
-    import csv
-
-    with open(out / "wide.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(asdict(rows[0])))
-        w.writeheader()
-        w.writerows(asdict(r) for r in rows)
-    targets = [out] + ([root / "docs"] if args.docs else [])
-    for d in targets:
-        fig_dir = d / "figures"
-        fig_dir.mkdir(parents=True, exist_ok=True)
-        names = figures(rows, keep, fig_dir)
-        (d / "wide-study.md").write_text(page(rows, names, args.rotations, args.general, args.seed, seconds))
+    output.write(rows, out, docs, "wide.csv", "wide-study.md", lambda d: figures(rows, keep, d),
+                 lambda names: page(rows, names, args.rotations, args.general, args.seed, seconds))
     print(table(rows))
     print(f"{len(rows)} runs in {seconds:.0f} s; written to {out}" + (" and docs/" if args.docs else ""))
     return 0
