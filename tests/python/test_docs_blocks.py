@@ -145,7 +145,8 @@ PRINTS = {
     ("docs/simulator.md", "sim.SegmentSource(0, 4), sim.SegmentSource(2, 6)"): [
         "segments:         converged at frame 392", "disc + diameters: converged at frame 383, 0.004 mm"],
     ("docs/vision.md", 'vision.blob_source(case.camera, disc, "ellipse")'): [
-        "ellipse from images: converged at frame 361", "moments from images: converged at frame 702, 3.3 mm"],
+        "ellipse from images: converged at frame 361", "moments from images: converged at frame",
+        "moments from images within 5 mm and 0.1 deg of the goal: True"],
     ("docs/simulator.md", "noise=0.3, latency=1, seed=7"): [
         "converged at frame 442 (error norm 0.00172 < tolerance 0.002)",
         "converged at frame 377 (worst point 0.931 px from its goal <= tolerance_px 1)",
