@@ -31,6 +31,15 @@ def refused_by_name(e: Exception, *names: str) -> bool:
                                                           for n in names)
 
 
+def assert_finite_episode(r) -> None:
+    """A sim.run result ended in one of the outcomes, with finite errors and measurements on every frame that has
+    an error norm, and finite twists on every frame."""
+    assert r.status.outcome in sim.OUTCOMES
+    h = r.history
+    ok = np.isfinite(h.error_norm)
+    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
+    assert np.isfinite(h.twist).all()
+
 @settings(max_examples=80)
 @given(points(4), hnp.arrays(np.float64, 4, elements=DEPTH), st.integers(-1, 4), st.integers(-1, 4))
 def test_area_and_segment_features_finite_or_refused(uv, z, i, j):
@@ -236,11 +245,7 @@ def test_line_sources_finite_or_refused(i, j, k, twist):
     except ValueError as e:
         assert refused_by_name(e, "start", "goal"), e
         return
-    assert r.status.outcome in sim.OUTCOMES
-    h = r.history
-    ok = np.isfinite(h.error_norm)
-    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
-    assert np.isfinite(h.twist).all()
+    assert_finite_episode(r)
 
 
 ARGUMENT = st.one_of(st.integers(-2, 6), st.none(), st.floats(allow_nan=True, width=64),
@@ -275,11 +280,7 @@ def test_pose_and_moments_sources_finite_or_refused(kind, arg, twist, depth, sca
     except ValueError as e:
         assert refused_by_name(e, "start", "goal"), e
         return
-    assert r.status.outcome in sim.OUTCOMES
-    h = r.history
-    ok = np.isfinite(h.error_norm)
-    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
-    assert np.isfinite(h.twist).all()
+    assert_finite_episode(r)
 
 
 # ------------------------------------------------------------------ sim.MiscalibratedCamera

@@ -13,7 +13,7 @@ from hypothesis.extra import numpy as hnp
 import ibvs
 
 from test_properties import COORD, DEPTH, finite
-from test_properties_more import ENTRY, refused_by_name
+from test_properties_more import ENTRY, assert_finite_episode, refused_by_name
 
 # Measurement entries: anything near the limits or beyond them ...
 ANY_SEGMENT = st.tuples(COORD, COORD, st.one_of(st.floats(0.0, 0.5), ENTRY), st.one_of(st.floats(-7, 7), ENTRY),
@@ -158,8 +158,4 @@ def test_segment_and_circle_sources_finite_or_refused(kind, i, j, centre, normal
     except ValueError as e:
         assert refused_by_name(e, "goal"), e
         return
-    assert r.status.outcome in sim.OUTCOMES
-    h = r.history
-    ok = np.isfinite(h.error_norm)
-    assert np.isfinite(h.error[ok]).all() and np.isfinite(h.measurements[ok]).all()
-    assert np.isfinite(h.twist).all()
+    assert_finite_episode(r)
