@@ -2,6 +2,8 @@
 
 #include "ibvs/limits.hpp"
 
+#include "checks.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -33,7 +35,7 @@ constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 // (rounding leaves ~1e-13 px at a focal length of 1000 px; the contract is 1e-6 px).
 constexpr double newton_tolerance_px = 1e-9;
 
-[[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("ibvs: " + what); }
+using detail::fail;
 
 std::string num(double x) {
   char buf[32];

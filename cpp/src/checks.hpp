@@ -24,6 +24,9 @@ namespace ibvs::detail {
 /// diagnostics (nothing of an earlier frame), Status::invalid_input.
 Status refuse(ServoOutput& out) noexcept;
 
+/// The validate() path's refusal: std::invalid_argument("ibvs: " + what).
+[[noreturn]] inline void fail(const std::string& what) { throw std::invalid_argument("ibvs: " + what); }
+
 /// A double for a message: shortest of %g at 6 digits (0.000001 prints as 1e-06).
 inline std::string number(double x) {
   char buf[32];

@@ -13,7 +13,7 @@ namespace ibvs {
 
 namespace {
 
-[[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("ibvs: " + what); }
+using detail::fail;
 
 using detail::number;
 

@@ -2,6 +2,7 @@
 
 #include "ibvs/pinv.hpp"
 
+#include "checks.hpp"
 #include "svd_instances.hpp"
 #include "solve.hpp"
 
@@ -42,7 +43,7 @@ bool is_rigid(const Pose& T) noexcept {
          T(3, 2) == 0.0 && T(3, 3) == 1.0;
 }
 
-[[noreturn]] void fail(const std::string& s) { throw std::invalid_argument("ibvs: " + s); }
+using detail::fail;
 
 int checked_joints(int n) {
   if (n < 1 || n > max_joints)
@@ -51,7 +52,7 @@ int checked_joints(int n) {
 }
 
 // A refused update: zero joint velocities, zero diagnostics, Status::invalid_input.
-Status refuse(JointMappingOutput& out, int n) noexcept {
+Status refuse_joint_update(JointMappingOutput& out, int n) noexcept {
   out.qdot.setZero(n);
   out.saturated = false;
   out.saturation_scale = 1.0;
@@ -147,13 +148,13 @@ Status JointMapping::update(const JointMappingInput& in, JointMappingOutput& out
                                : (options_.frame != JacobianFrame::base || is_rotation(in.base_rotation)));
   if (!ok) {
     out.camera_jacobian.setZero(6, n);
-    return refuse(out, n);
+    return refuse_joint_update(out, n);
   }
   if (eye_to_hand)
     camera_jacobian(eMc_, Mounting::eye_to_hand, options_.frame, in.jacobian, in.base_pose, out.camera_jacobian);
   else
     camera_jacobian(eMc_, options_.frame, in.jacobian, in.base_rotation, out.camera_jacobian);
-  if (!out.camera_jacobian.allFinite()) return refuse(out, n);  // finite input whose eq. (1) overflows
+  if (!out.camera_jacobian.allFinite()) return refuse_joint_update(out, n);  // finite input whose eq. (1) overflows
   if (n >= 6 && normal_route(in, out)) return finish(out, Status::ok);
   work_ = out.camera_jacobian;
   svd_.compute(work_, Eigen::ComputeThinU | Eigen::ComputeThinV);
@@ -253,7 +254,7 @@ Status JointMapping::finish(JointMappingOutput& out, Status status) noexcept {
       out.saturation_scale = scale;
     }
   }
-  if (!out.qdot.allFinite()) return refuse(out, n);  // e.g. a huge twist over a tiny singular value
+  if (!out.qdot.allFinite()) return refuse_joint_update(out, n);  // e.g. a huge twist over a tiny singular value
   return out.status = status;
 }
 

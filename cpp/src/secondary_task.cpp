@@ -2,6 +2,7 @@
 
 #include "ibvs/pinv.hpp"
 
+#include "checks.hpp"
 #include "svd_instances.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -24,7 +25,7 @@ const char* to_string(Projector p) noexcept {
 
 namespace {
 
-[[noreturn]] void fail(const std::string& s) { throw std::invalid_argument("ibvs: " + s); }
+using detail::fail;
 
 std::string entries(const char* name, int n, Eigen::Index got) {
   return std::string(name) + " must have " + std::to_string(n) + " entries, got " + std::to_string(got);

@@ -12,13 +12,13 @@ namespace ibvs {
 
 namespace {
 
-[[noreturn]] void refuse(const std::string& what) { throw std::invalid_argument("ibvs: ellipse: " + what); }
+[[noreturn]] void refuse_ellipse(const std::string& what) { throw std::invalid_argument("ibvs: ellipse: " + what); }
 
 // The measurement `m` as check() sees it: thrown as the reason when refused.
 std::array<double, 8> checked(const std::array<double, 8>& m, const char* from) {
   int entry = -1;
   if (const char* why = EllipseFeature().check(m.data(), entry))
-    refuse(std::string(from) + " gives a refused measurement" +
+    refuse_ellipse(std::string(from) + " gives a refused measurement" +
            (entry >= 0 ? " (entry " + std::to_string(entry) + ")" : std::string()) + ": " + why);
   return m;
 }
@@ -27,20 +27,21 @@ std::array<double, 8> checked(const std::array<double, 8>& m, const char* from) 
 
 std::array<double, 8> EllipseFeature::project_circle(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
                                                      double radius) {
-  if (!centre.allFinite()) refuse("centre is not finite");
-  if (!normal.allFinite() || !(normal.norm() > 0.0)) refuse("normal must be finite and nonzero");
-  if (!(radius > 0.0) || !std::isfinite(radius)) refuse("radius must be finite and > 0, got " + detail::number(radius));
+  if (!centre.allFinite()) refuse_ellipse("centre is not finite");
+  if (!normal.allFinite() || !(normal.norm() > 0.0)) refuse_ellipse("normal must be finite and nonzero");
+  if (!(radius > 0.0) || !std::isfinite(radius))
+    refuse_ellipse("radius must be finite and > 0, got " + detail::number(radius));
   const Eigen::Vector3d n = normal.normalized();
   const double d = n.dot(centre);  // the plane n . X = d; |d| its distance from the camera centre
   if (!(std::abs(d) >= min_depth))
-    refuse("the circle's plane passes within min_depth of the camera centre (seen edge-on: no ellipse)");
+    refuse_ellipse("the circle's plane passes within min_depth of the camera centre (seen edge-on: no ellipse)");
   // Depths of the circle's points: Z0 +- radius |n x e_z|.
   const double spread = radius * std::hypot(n.x(), n.y());
   if (!(centre.z() - spread >= min_depth) || !(centre.z() + spread <= max_depth))
-    refuse("the circle must lie wholly at depths within [" + detail::number(min_depth) + ", " +
+    refuse_ellipse("the circle must lie wholly at depths within [" + detail::number(min_depth) + ", " +
            detail::number(max_depth) + "] m (in front of the camera)");
   std::array<double, 8> m;
-  if (!project_circle(centre, normal, radius, m.data())) refuse("the circle's image is not an ellipse");
+  if (!project_circle(centre, normal, radius, m.data())) refuse_ellipse("the circle's image is not an ellipse");
   return checked(m, "the circle");
 }
 
@@ -84,10 +85,11 @@ std::array<double, 8> EllipseFeature::measure_moments(const std::array<double, 6
                                                       const CameraModel& camera) {
   static const char* names[6] = {"m00", "m10", "m01", "mu20", "mu11", "mu02"};
   for (int i = 0; i < 6; ++i)
-    if (!std::isfinite(mo[static_cast<std::size_t>(i)])) refuse(std::string("moments: ") + names[i] + " is not finite");
-  if (!(mo[0] > 0.0)) refuse("moments: m00 (the area) must be > 0, got " + detail::number(mo[0]));
+    if (!std::isfinite(mo[static_cast<std::size_t>(i)]))
+      refuse_ellipse(std::string("moments: ") + names[i] + " is not finite");
+  if (!(mo[0] > 0.0)) refuse_ellipse("moments: m00 (the area) must be > 0, got " + detail::number(mo[0]));
   if (camera.distortion() != Distortion::none)
-    refuse("moments of a distorted image are not those of the undistorted blob: undistort the image first "
+    refuse_ellipse("moments of a distorted image are not those of the undistorted blob: undistort the image first "
            "(cv2.undistort) and pass a camera without distortion");
   // Pixels u = u0 + px x, v = v0 + py y: the centroid maps as a point, mu_ij / m00 scales by px^i py^j.
   const double px = camera.px(), py = camera.py(), ia = 1.0 / mo[0];
