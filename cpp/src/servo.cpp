@@ -1,9 +1,12 @@
 #include "ibvs/servo.hpp"
 
 #include "checks.hpp"
+#include "servo_caches.hpp"
 #include "solve.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -92,6 +95,34 @@ std::uint64_t fallback_pattern(const Layout& layout, double polar_min_radius, co
   return bits;
 }
 
+// The goal side of a point's polar and cylindrical blocks, r* = sqrt(u*^2 + v*^2) and
+// theta* = atan2(v*, u*), kept while the goal point's bits are unchanged (the goal is usually
+// fixed for many frames: this saves an atan2 and a sqrt per block). Both are functions of
+// (u*, v*) alone (no option enters them), computed from the caller's r*^2 by the same
+// expressions as before, so a cached value is the uncached one bit for bit; keyed on the exact
+// bits, so -0 and +0 (atan2 tells them apart) are different goals.
+struct GoalPoint {
+  std::uint64_t ud = ~std::uint64_t{0}, vd = ~std::uint64_t{0};  // the bits of (u*, v*); a NaN: none yet
+  double rd = 0.0, theta = 0.0;
+
+  inline static std::uint64_t bits(double x) noexcept {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+  }
+  // This goal point's (r*, theta*), refilled when (u*, v*) changed; rd2 = u* u* + v* v*.
+  const GoalPoint& at(double u_d, double v_d, double rd2) noexcept {
+    const std::uint64_t bu = bits(u_d), bv = bits(v_d);
+    if (bu != ud || bv != vd) {
+      ud = bu;
+      vd = bv;
+      rd = std::sqrt(rd2);
+      theta = std::atan2(v_d, u_d);
+    }
+    return *this;
+  }
+};
+
 // Workspace for one row count: the assembled J and e, and the solver (see
 // solve.hpp for the sizes: Rows = 8 or 16, or Dynamic bounded by MaxRows).
 template <int Rows, int MaxRows = Rows>
@@ -123,11 +154,12 @@ struct Work {
   // at r = 0 takes the other point's direction (alpha = 0 there): its block is then
   // the Cartesian block in a rotated basis, so no fallback is needed.
   void put_cylindrical(Eigen::Index row, InteractionMatrix which, double u, double v, double r2, double z, double ud,
-                       double vd, double rd2, double zd, double centre) noexcept {
-    const double r = std::sqrt(r2), rd = std::sqrt(rd2);
+                       double vd, double rd2, double zd, double centre, GoalPoint& goal) noexcept {
+    const GoalPoint& g = goal.at(ud, vd, rd2);
+    const double r = std::sqrt(r2), rd = g.rd;
     double dth = 0.0;
     if (r2 > 0.0 && rd2 > 0.0) {
-      dth = wrap_difference(std::atan2(v, u) - std::atan2(vd, ud), centre);
+      dth = wrap_difference(std::atan2(v, u) - g.theta, centre);
     }
     e(row) = r - rd;
     e(row + 1) = r * dth;
@@ -143,17 +175,17 @@ struct Work {
   std::uint64_t key = 0;
 
   // Fills J and e for this frame; returns the number of polar fallbacks. Angle differences are
-  // wrapped about `centre` (NaN: per point, eq. 13).
+  // wrapped about `centre` (NaN: per point, eq. 13). goal: one GoalPoint per point (the cache).
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
-               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre) noexcept {
+               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre, GoalPoint* goal) noexcept {
     int fallbacks = 0;
     Eigen::Index row = 0;
     for (const Block& b : layout.blocks()) {
       const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
       const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
       if (b.representation == Representation::cylindrical) {
-        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre);
+        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre, goal[b.point]);
         row += 2;
         continue;
       }
@@ -164,9 +196,10 @@ struct Work {
       }
       if (polar) {
         // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
-        const double r = std::sqrt(r2), rd = std::sqrt(rd2);
+        const GoalPoint& g = goal[b.point].at(ud, vd, rd2);
+        const double r = std::sqrt(r2), rd = g.rd;
         e(row) = r - rd;
-        e(row + 1) = wrap_difference(std::atan2(v, u) - std::atan2(vd, ud), centre);
+        e(row + 1) = wrap_difference(std::atan2(v, u) - g.theta, centre);
         const auto cur = [&] { return polar_jacobian(r, u / r, v / r, z(b.point)); };
         const auto des = [&] { return polar_jacobian(rd, ud / rd, vd / rd, zd(b.point)); };
         put(row, o.jacobian, cur, des);
@@ -285,6 +318,7 @@ struct Servo::Kernel {
   MatrixX6 spare;           // a feature block's rows at the goal (InteractionMatrix::mean)
   Points uv_valid;          // uv and depth with the lost points at their goal (ServoInput::valid)
   Eigen::VectorXd z_valid;
+  std::vector<GoalPoint> goal;  // each point's goal-side polar values (sized here: no allocation per frame)
 
   explicit Kernel(const Task& task) {
     const int rows = task.rows();
@@ -303,8 +337,13 @@ struct Servo::Kernel {
     spare = MatrixX6::Zero(largest, 6);
     uv_valid = Points::Zero(2, task.n_points());
     z_valid = Eigen::VectorXd::Ones(task.n_points());
+    goal.assign(static_cast<std::size_t>(task.n_points()), GoalPoint{});
   }
 };
+
+void detail::ServoCaches::forget(Servo& servo) noexcept {
+  for (GoalPoint& g : servo.kernel_->goal) g = GoalPoint{};
+}
 
 ServoInput::ServoInput(const Task& task)
     : uv(Points::Zero(2, task.n_points())),
@@ -621,7 +660,7 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
           if (feature_angles) w.add_feature_angles(task_, kernel.angles.data(), sum);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
         }
-        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
+        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre, kernel.goal.data());
         if (!plain) {
           if (feature_angles && !std::isnan(centre)) w.wrap_feature_angles(task_, kernel.angles.data(), centre);
           w.weigh(task_);
