@@ -2,6 +2,7 @@
 
 #include "checks.hpp"
 #include "servo_caches.hpp"
+#include "features/moments_goal.hpp"
 #include "solve.hpp"
 
 #include <cmath>
@@ -12,6 +13,7 @@
 #include <string>
 #include <type_traits>
 #include <algorithm>
+#include <array>
 #include <variant>
 #include <vector>
 
@@ -121,6 +123,16 @@ struct GoalPoint {
     }
     return *this;
   }
+};
+
+// The goal's side of a feature block that the library splits off (image moments: the goal's check
+// and evaluation, detail::moments_goal), kept while the bits of the block's goal measurement are
+// unchanged; other kinds are evaluated as they are.
+struct FeatureGoal {
+  const MomentsFeature* moments = nullptr;  // the block, when it is image moments
+  bool filled = false;
+  std::array<double, MomentsFeature::measurement_size> key{};  // the goal measurement it is from
+  detail::MomentsGoal goal;
 };
 
 // Workspace for one row count: the assembled J and e, and the solver (see
@@ -268,13 +280,26 @@ struct Work {
   // assemble_features() for InteractionMatrix::current with each block's check folded in
   // (Feature::evaluate: the same rows, bit for bit, each measurement evaluated once where a kind
   // can); false, with nothing more computed, when a measurement is refused.
-  bool evaluate_features(const Task& task, const double* m, const double* md, double* aligned) noexcept {
+  // goal: each block's FeatureGoal (the goal cache).
+  bool evaluate_features(const Task& task, const double* m, const double* md, double* aligned,
+                         FeatureGoal* goal) noexcept {
     for (int k = 0; k < task.n_features(); ++k) {
       const Feature& f = task.feature(k);
       const int row = task.row(k), off = task.offset(k);
       double* mc = aligned + off;
       std::copy(m + off, m + off + f.size(), mc);
-      if (f.evaluate(mc, md + off, e.data() + row, J.middleRows(row, f.rows()))) return false;
+      FeatureGoal& g = goal[k];
+      if (g.moments) {
+        if (!g.filled || std::memcmp(g.key.data(), md + off, sizeof g.key) != 0) {
+          std::memcpy(g.key.data(), md + off, sizeof g.key);
+          detail::moments_goal(*g.moments, md + off, g.goal);
+          g.filled = true;
+        }
+        if (detail::moments_evaluate(*g.moments, mc, g.goal, e.data() + row, J.middleRows(row, f.rows())))
+          return false;
+      } else if (f.evaluate(mc, md + off, e.data() + row, J.middleRows(row, f.rows()))) {
+        return false;
+      }
     }
     return true;
   }
@@ -319,6 +344,7 @@ struct Servo::Kernel {
   Points uv_valid;          // uv and depth with the lost points at their goal (ServoInput::valid)
   Eigen::VectorXd z_valid;
   std::vector<GoalPoint> goal;  // each point's goal-side polar values (sized here: no allocation per frame)
+  std::vector<FeatureGoal> feature_goal;  // each feature block's goal side (image moments)
 
   explicit Kernel(const Task& task) {
     const int rows = task.rows();
@@ -338,11 +364,15 @@ struct Servo::Kernel {
     uv_valid = Points::Zero(2, task.n_points());
     z_valid = Eigen::VectorXd::Ones(task.n_points());
     goal.assign(static_cast<std::size_t>(task.n_points()), GoalPoint{});
+    feature_goal.assign(static_cast<std::size_t>(task.n_features()), FeatureGoal{});
+    for (int k = 0; k < task.n_features(); ++k)
+      feature_goal[static_cast<std::size_t>(k)].moments = dynamic_cast<const MomentsFeature*>(&task.feature(k));
   }
 };
 
 void detail::ServoCaches::forget(Servo& servo) noexcept {
   for (GoalPoint& g : servo.kernel_->goal) g = GoalPoint{};
+  for (FeatureGoal& g : servo.kernel_->feature_goal) g.filled = false;
 }
 
 ServoInput::ServoInput(const Task& task)
@@ -628,7 +658,7 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
                      [&](auto& w) noexcept {
                        if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) return false;
                        else return w.evaluate_features(task_, measurements.data(), measurements_desired.data(),
-                                                       kernel.aligned.data());
+                                                       kernel.aligned.data(), kernel.feature_goal.data());
                      },
                      kernel.work));
   if (!ok) {

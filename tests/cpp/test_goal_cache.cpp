@@ -5,9 +5,11 @@
 // caches must survive: goals that stay, move (all points, one point, one coordinate, a zero's sign), lost points,
 // polar fallbacks near r = 0 (goal or current point), goal points at r = 0 exactly (the
 // cylindrical blocks borrow a direction), the exact half-turn, the near-goal law switch,
-// smoothing and stop ramps, reset(), refused frames, and every interaction matrix and wrap.
+// smoothing and stop ramps, reset(), refused frames, and every interaction matrix and wrap; and
+// image-moment blocks (alone or beside points) whose goal measurement stays, moves or is refused.
 #include "check.hpp"
 #include "ibvs/ibvs.hpp"
+#include "features/moments_goal.hpp"
 #include "servo_caches.hpp"
 
 #include <cstring>
@@ -161,9 +163,94 @@ void random_episode(std::mt19937& rng) {
   }
 }
 
+// Image moments of an irregular quadrilateral seen from a random pose about the goal pose (the
+// object 0.6 m in front), or at the goal pose itself; a measurement the block refuses now and then.
+Eigen::VectorXd moments_measurement(std::mt19937& rng, const ibvs::MomentsFeature& f, bool at_goal, double spread) {
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  Eigen::Matrix<double, 3, 4> P;
+  P << -0.07, 0.08, 0.05, -0.05, -0.05, -0.04, 0.06, 0.04, 0.0, 0.0, 0.0, 0.0;
+  ibvs::Twist xi = ibvs::Twist::Zero();
+  if (!at_goal) xi << 0.0, 0.0, 0.0, 0.25 * spread * U(rng), 0.25 * spread * U(rng), (rng() % 8 ? 1.0 : 6.0) * U(rng);
+  ibvs::Pose cMo = ibvs::se3_exp(xi);
+  cMo.topRightCorner<3, 1>() << (at_goal ? 0.0 : 0.05 * spread * U(rng)), (at_goal ? 0.0 : 0.05 * spread * U(rng)),
+      0.6 + (at_goal ? 0.0 : 0.15 * spread * U(rng));
+  const Eigen::Matrix3Xd Q = (cMo.topLeftCorner<3, 3>() * P).colwise() + cMo.topRightCorner<3, 1>();
+  const auto m = ibvs::MomentsFeature::project(Q, f.source(), 0.0, 0.6);
+  Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(m.data(), static_cast<Eigen::Index>(m.size()));
+  if (rng() % 30 == 0) v(0) = -1.0;  // zero area: refused
+  return v;
+}
+
+// Image moments alone, or beside points (stacked, cylindrical...), with the goal's measurement
+// kept, moved or refused, and every option as above.
+void moments_episode(std::mt19937& rng) {
+  using MF = ibvs::MomentsFeature;
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const MF f(rng() % 2 ? MF::Source::region : MF::Source::points, rng() % 2 ? MF::Invariants::p : MF::Invariants::s,
+             rng() % 2 ? MF::Alpha::third_order : MF::Alpha::second_order,
+             rng() % 3 ? static_cast<unsigned>(MF::Row::all) : 1u + static_cast<unsigned>(rng() % 63));
+  const int n = static_cast<int>(rng() % 4);
+  ibvs::Task task(n ? random_layout(rng, n) : ibvs::Layout::none());
+  task.add(f);
+  if (rng() % 3 == 0) task.add(f);  // two blocks
+  const ibvs::ServoOptions options = random_options(rng);
+  ibvs::Servo cached(task, options), fresh(task, options);
+  ibvs::ServoOutput a(task), b(task);
+  const Eigen::Index size = task.measurement_size();
+  const auto measurements = [&](bool at_goal, double spread) {
+    Eigen::VectorXd m(size);
+    for (int k = 0; k < task.n_features(); ++k)
+      m.segment(task.offset(k), MF::measurement_size) = moments_measurement(rng, f, at_goal, spread);
+    return m;
+  };
+  Eigen::VectorXd md = measurements(true, 0.0);
+  Points uvd(2, n);
+  for (int i = 0; i < n; ++i) uvd.col(i) = goal_point(rng);
+  const Eigen::VectorXd zd = Eigen::VectorXd::Ones(n);
+  for (int frame = 0; frame < 20; ++frame) {
+    if (rng() % 6 == 0) md = measurements(rng() % 2 == 0, 0.3);  // the goal moves (or is refused)
+    if (n > 0 && rng() % 10 == 0) uvd.col(0) = -uvd.col(0);  // a goal point moved
+    const Eigen::VectorXd m = rng() % 8 ? measurements(false, 1.0) : md;
+    Points uv(2, n);
+    for (int i = 0; i < n; ++i) uv.col(i) = uvd.col(i) + Eigen::Vector2d(0.05 * U(rng), 0.05 * U(rng));
+    const Eigen::VectorXd z = Eigen::VectorXd::Constant(n, 1.0 + 0.2 * U(rng));
+    ibvs::PointMask valid = ibvs::PointMask::Constant(n, true);
+    for (int i = 0; i < n; ++i)
+      if (rng() % 7 == 0) valid(i) = false;
+    ibvs::detail::ServoCaches::forget(fresh);
+    const ibvs::Status sa = cached.update(uv, z, uvd, zd, m, md, valid, a);
+    const ibvs::Status sb = fresh.update(uv, z, uvd, zd, m, md, valid, b);
+    check_same(sa, a, sb, b);
+  }
+}
+
+// The split moments evaluation (the goal's side once, detail::moments_goal; then
+// detail::moments_evaluate) against MomentsFeature::evaluate itself: refused alike, and e and L
+// bit for bit.
+void moments_split_matches_evaluate(std::mt19937& rng) {
+  using MF = ibvs::MomentsFeature;
+  const MF f(rng() % 2 ? MF::Source::region : MF::Source::points, rng() % 2 ? MF::Invariants::p : MF::Invariants::s,
+             rng() % 2 ? MF::Alpha::third_order : MF::Alpha::second_order,
+             rng() % 3 ? static_cast<unsigned>(MF::Row::all) : 1u + static_cast<unsigned>(rng() % 63));
+  const Eigen::VectorXd md = moments_measurement(rng, f, rng() % 2 == 0, 0.3);
+  Eigen::VectorXd m = moments_measurement(rng, f, false, 1.0), m2 = m;
+  ibvs::detail::MomentsGoal goal;
+  ibvs::detail::moments_goal(f, md.data(), goal);
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(6), e2 = e;
+  ibvs::MatrixX6 L = ibvs::MatrixX6::Zero(6, 6), L2 = L;
+  const bool refused = f.evaluate(m.data(), md.data(), e.data(), L) != nullptr;
+  const bool refused2 = ibvs::detail::moments_evaluate(f, m2.data(), goal, e2.data(), L2) != nullptr;
+  CHECK(refused == refused2);
+  CHECK(same_bits(m, m2));
+  CHECK(same_bits(e, e2));
+  CHECK(same_bits(L, L2));
+}
+
 }  // namespace
 
 void run_tests() {
   std::mt19937 rng(ibvs_test::seed);
   for (int c = 0; c < ibvs_test::cases; ++c) random_episode(rng);
+  for (int c = 0; c < ibvs_test::cases / 2; ++c) moments_episode(rng);
+  for (int c = 0; c < 4 * ibvs_test::cases; ++c) moments_split_matches_evaluate(rng);
 }
