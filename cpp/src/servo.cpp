@@ -29,31 +29,6 @@ inline double wrap_difference(double d, double centre) noexcept {
   return std::isnan(centre) ? d : wrap_about(d, centre);
 }
 
-// Sum of the unit vectors of the angle differences of the blocks that have an
-// angle this frame (polar blocks that do not fall back, cylindrical blocks with
-// both radii > 0), from the points' directions: (cos, sin)(theta - theta*) =
-// (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
-// Masked: the blocks of the points marked valid only.
-template <bool Masked>
-AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
-                               const Eigen::Ref<const Points>& uvd, const PointMask* valid) noexcept {
-  AngleResultant sum;
-  for (const Block& b : layout.blocks()) {
-    if (b.representation == Representation::cartesian) continue;
-    if constexpr (Masked)
-      if (!(*valid)(b.point)) continue;
-    const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
-    const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
-    if (b.representation == Representation::polar
-            ? polar_falls_back(r2, polar_min_radius) || polar_falls_back(rd2, polar_min_radius)
-            : !(r2 > 0.0 && rd2 > 0.0))
-      continue;
-    const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
-    if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
-  }
-  return sum;
-}
-
 // A 64-bit hash of a row or point index (splitmix64's finaliser): sets of them are xored.
 inline std::uint64_t mix(std::uint64_t x) noexcept {
   x += 0x9e3779b97f4a7c15ULL;
@@ -144,7 +119,10 @@ struct Work {
   using Vec = typename Solve::Vec;
 
   explicit Work(Eigen::Index m)
-      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)), e(Vec::Zero(J.rows())), solver(J.rows()) {}
+      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
+        e(Vec::Zero(J.rows())),
+        solver(J.rows()),
+        waiting(static_cast<std::size_t>(m / 2)) {}
 
   Jac J;
   Vec e;
@@ -186,18 +164,37 @@ struct Work {
   // A hash of the lost points of this step (drop_lost), for the smooth law.
   std::uint64_t key = 0;
 
-  // Fills J and e for this frame; returns the number of polar fallbacks. Angle differences are
-  // wrapped about `centre` (NaN: per point, eq. 13). goal: one GoalPoint per point (the cache).
+  // The blocks whose angle waits for the consistent wrap's centre (assemble() with a resultant):
+  // the row of each polar angle difference, or the index of each cylindrical block (~row: its
+  // rows depend on the wrapped angle); `n_waiting` of them this frame.
+  std::vector<Eigen::Index> waiting;
+  std::size_t n_waiting = 0;
+
+  // Fills J and e for this frame; returns the number of polar fallbacks. goal: one GoalPoint per
+  // point (the cache). Without `sum` (AngleWrap::per_point) angle differences are wrapped by eq.
+  // 13 alone. With it (consistent wrap), in the same pass, the unit vector of the angle difference
+  // of each block that has an angle this frame (polar blocks that do not fall back, cylindrical
+  // blocks with both radii > 0; of the points marked valid only) is added to `sum` in block order,
+  // the polar angle rows are left at eq. 13 and the cylindrical blocks are left out:
+  // wrap_about_centre() completes them once the centre is known.
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
-               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre, GoalPoint* goal) noexcept {
+               const Eigen::Ref<const Eigen::VectorXd>& zd, GoalPoint* goal, const PointMask* valid,
+               AngleResultant* sum) noexcept {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
     int fallbacks = 0;
+    n_waiting = 0;
     Eigen::Index row = 0;
     for (const Block& b : layout.blocks()) {
       const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
       const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
       if (b.representation == Representation::cylindrical) {
-        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre, goal[b.point]);
+        if (sum) {
+          if ((!valid || (*valid)(b.point)) && r2 > 0.0 && rd2 > 0.0) add_direction(*sum, u, v, r2, ud, vd, rd2);
+          waiting[n_waiting++] = ~row;
+        } else {
+          put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), nan, goal[b.point]);
+        }
         row += 2;
         continue;
       }
@@ -207,11 +204,15 @@ struct Work {
         ++fallbacks;
       }
       if (polar) {
+        if (sum) {
+          if (!valid || (*valid)(b.point)) add_direction(*sum, u, v, r2, ud, vd, rd2);
+          waiting[n_waiting++] = row + 1;
+        }
         // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
         const GoalPoint& g = goal[b.point].at(ud, vd, rd2);
         const double r = std::sqrt(r2), rd = g.rd;
         e(row) = r - rd;
-        e(row + 1) = wrap_difference(std::atan2(v, u) - g.theta, centre);
+        e(row + 1) = wrap_difference(std::atan2(v, u) - g.theta, nan);
         const auto cur = [&] { return polar_jacobian(r, u / r, v / r, z(b.point)); };
         const auto des = [&] { return polar_jacobian(rd, ud / rd, vd / rd, zd(b.point)); };
         put(row, o.jacobian, cur, des);
@@ -225,6 +226,35 @@ struct Work {
       row += 2;
     }
     return fallbacks;
+  }
+
+  // The resultant's term of one block, from the points' directions: (cos, sin)(theta - theta*) =
+  // (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
+  static void add_direction(AngleResultant& sum, double u, double v, double r2, double ud, double vd,
+                            double rd2) noexcept {
+    const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
+    if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
+  }
+
+  // After assemble() with a resultant: the polar angle rows wrapped about the centre (NaN: as
+  // they are, eq. 13) and the cylindrical blocks computed, with the same values as a single pass
+  // that knew the centre (wrap_difference() is eq. 13, then wrap_about the centre).
+  void wrap_about_centre(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
+                         const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
+                         const Eigen::Ref<const Eigen::VectorXd>& zd, GoalPoint* goal, double centre) noexcept {
+    const bool wrap = !std::isnan(centre);
+    for (std::size_t i = 0; i < n_waiting; ++i) {
+      const Eigen::Index w = waiting[i];
+      if (w >= 0) {
+        if (wrap) e(w) = wrap_about(e(w), centre);
+        continue;
+      }
+      const Eigen::Index row = ~w;
+      const Block& b = layout.blocks()[static_cast<std::size_t>(row / 2)];
+      const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+      const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
+      put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre, goal[b.point]);
+    }
   }
 
   // Rows after the points: each feature block's error and interaction matrix, from the current
@@ -682,15 +712,17 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
         const bool feature_angles = !plain && consistent &&
                                     w.record_feature_angles(task_, kernel.aligned.data(), measurements_desired.data(),
                                                             kernel.angles.data());
-        // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
+        // Consistent wrap: this frame's circular mean (the points' resultant summed by assemble()),
+        // continued from the previous frame's centre; then the angles wrapped about it.
         double centre = std::numeric_limits<double>::quiet_NaN();
+        AngleResultant sum;
+        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, kernel.goal.data(), valid,
+                                         consistent ? &sum : nullptr);
         if (consistent) {
-          AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
-                                     : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
           if (feature_angles) w.add_feature_angles(task_, kernel.angles.data(), sum);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
+          w.wrap_about_centre(layout, o, uv, depth, uv_desired, depth_desired, kernel.goal.data(), centre);
         }
-        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre, kernel.goal.data());
         if (!plain) {
           if (feature_angles && !std::isnan(centre)) w.wrap_feature_angles(task_, kernel.angles.data(), centre);
           w.weigh(task_);
