@@ -1,5 +1,7 @@
 #include "ibvs/servo.hpp"
 
+#include "ibvs/features/pose.hpp"
+
 #include "checks.hpp"
 #include "servo_caches.hpp"
 #include "features/moments_goal.hpp"
@@ -100,15 +102,44 @@ struct GoalPoint {
   }
 };
 
-// The goal's side of a feature block that the library splits off (image moments: the goal's check
-// and evaluation, detail::moments_goal), kept while the bits of the block's goal measurement are
-// unchanged; other kinds are evaluated as they are.
+// The goal's side of a feature block of a kind the library knows, kept while the bits of the
+// block's goal measurement are unchanged: image moments (the goal's check and evaluation,
+// detail::moments_goal), PBVS and 2.5-D (the goal's check and value: their alignment, error and
+// evaluation are Feature's defaults, so their error is value(m) - value(m*) and their step is
+// check(m), check(m*), that error and interaction(m)). Other kinds are evaluated as they are.
 struct FeatureGoal {
   const MomentsFeature* moments = nullptr;  // the block, when it is image moments
+  const PbvsFeature* pbvs = nullptr;        // ... PBVS
+  const Point25DFeature* point25d = nullptr;  // ... 2.5-D
   bool filled = false;
   std::array<double, MomentsFeature::measurement_size> key{};  // the goal measurement it is from
-  detail::MomentsGoal goal;
+  detail::MomentsGoal goal;      // moments
+  bool refused = false;          // PBVS, 2.5-D: check(m*) refused m*
+  std::array<double, 6> sd{};    // PBVS, 2.5-D: value(m*)
+
+  // Refilled when the goal measurement (size doubles) changed.
+  template <class Fill>
+  void keep(const double* md, int size, Fill&& fill) noexcept {
+    const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(size);
+    if (filled && std::memcmp(key.data(), md, bytes) == 0) return;
+    std::memcpy(key.data(), md, bytes);
+    fill();
+    filled = true;
+  }
 };
+
+// Feature::evaluate (its default: check(m), check(m*), align (none), error = value(m) - value(m*),
+// interaction(m)) for a kind F that keeps all the defaults, with the goal's check and value given.
+template <class F>
+bool evaluate_with_goal(const F& f, const FeatureGoal& g, double* m, double* e, Eigen::Ref<MatrixX6> L) noexcept {
+  int entry = -1;
+  if (f.check(m, entry) || g.refused) return false;
+  double s[6];
+  f.value(m, s);
+  for (int i = 0; i < 6; ++i) e[i] = s[i] - g.sd[i];
+  f.interaction(m, L);
+  return true;
+}
 
 // Workspace for one row count: the assembled J and e, and the solver (see
 // solve.hpp for the sizes: Rows = 8 or 16, or Dynamic bounded by MaxRows).
@@ -319,15 +350,25 @@ struct Work {
       double* mc = aligned + off;
       std::copy(m + off, m + off + f.size(), mc);
       FeatureGoal& g = goal[k];
+      const double* gd = md + off;
       if (g.moments) {
-        if (!g.filled || std::memcmp(g.key.data(), md + off, sizeof g.key) != 0) {
-          std::memcpy(g.key.data(), md + off, sizeof g.key);
-          detail::moments_goal(*g.moments, md + off, g.goal);
-          g.filled = true;
-        }
+        g.keep(gd, f.size(), [&] { detail::moments_goal(*g.moments, gd, g.goal); });
         if (detail::moments_evaluate(*g.moments, mc, g.goal, e.data() + row, J.middleRows(row, f.rows())))
           return false;
-      } else if (f.evaluate(mc, md + off, e.data() + row, J.middleRows(row, f.rows()))) {
+      } else if (g.pbvs || g.point25d) {
+        const auto fill = [&](const auto& kind) {
+          int entry = -1;
+          g.refused = kind.check(gd, entry) != nullptr;
+          if (!g.refused) kind.value(gd, g.sd.data());
+        };
+        if (g.pbvs) {
+          g.keep(gd, f.size(), [&] { fill(*g.pbvs); });
+          if (!evaluate_with_goal(*g.pbvs, g, mc, e.data() + row, J.middleRows(row, 6))) return false;
+        } else {
+          g.keep(gd, f.size(), [&] { fill(*g.point25d); });
+          if (!evaluate_with_goal(*g.point25d, g, mc, e.data() + row, J.middleRows(row, 6))) return false;
+        }
+      } else if (f.evaluate(mc, gd, e.data() + row, J.middleRows(row, f.rows()))) {
         return false;
       }
     }
@@ -395,8 +436,12 @@ struct Servo::Kernel {
     z_valid = Eigen::VectorXd::Ones(task.n_points());
     goal.assign(static_cast<std::size_t>(task.n_points()), GoalPoint{});
     feature_goal.assign(static_cast<std::size_t>(task.n_features()), FeatureGoal{});
-    for (int k = 0; k < task.n_features(); ++k)
-      feature_goal[static_cast<std::size_t>(k)].moments = dynamic_cast<const MomentsFeature*>(&task.feature(k));
+    for (int k = 0; k < task.n_features(); ++k) {  // the kinds are final classes: these are exact
+      FeatureGoal& g = feature_goal[static_cast<std::size_t>(k)];
+      g.moments = dynamic_cast<const MomentsFeature*>(&task.feature(k));
+      g.pbvs = dynamic_cast<const PbvsFeature*>(&task.feature(k));
+      g.point25d = dynamic_cast<const Point25DFeature*>(&task.feature(k));
+    }
   }
 };
 

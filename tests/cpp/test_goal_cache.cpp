@@ -6,7 +6,8 @@
 // polar fallbacks near r = 0 (goal or current point), goal points at r = 0 exactly (the
 // cylindrical blocks borrow a direction), the exact half-turn, the near-goal law switch,
 // smoothing and stop ramps, reset(), refused frames, and every interaction matrix and wrap; and
-// image-moment blocks (alone or beside points) whose goal measurement stays, moves or is refused.
+// image-moment, PBVS and 2.5-D blocks (alone or beside points) whose goal measurement stays, moves
+// or is refused.
 #include "check.hpp"
 #include "ibvs/ibvs.hpp"
 #include "features/moments_goal.hpp"
@@ -224,6 +225,64 @@ void moments_episode(std::mt19937& rng) {
   }
 }
 
+// PBVS (both targets) and 2.5-D blocks, alone, together or beside points, with the goal pose kept,
+// moved or refused (a NaN), and every option as above.
+void pose_episode(std::mt19937& rng) {
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const int n = static_cast<int>(rng() % 4);
+  ibvs::Task task(n ? random_layout(rng, n) : ibvs::Layout::none());
+  const int kinds = 1 + static_cast<int>(rng() % 7);  // bits: PBVS to the goal camera, to the object, 2.5-D
+  if (kinds & 1) task.add(ibvs::PbvsFeature(ibvs::PbvsTarget::desired_camera));
+  if (kinds & 2) task.add(ibvs::PbvsFeature(ibvs::PbvsTarget::object));
+  if (kinds & 4) task.add(ibvs::Point25DFeature());
+  const ibvs::ServoOptions options = random_options(rng);
+  ibvs::Servo cached(task, options), fresh(task, options);
+  ibvs::ServoOutput a(task), b(task);
+  const Eigen::Vector3d P(0.08, -0.04, 0.0);
+  const auto pose = [&](double spread) {
+    ibvs::Twist xi;
+    xi << 0.05 * spread * U(rng), 0.05 * spread * U(rng), 0.1 * spread * U(rng), 0.3 * spread * U(rng),
+        0.3 * spread * U(rng), (rng() % 8 ? 1.0 : 3.1) * spread * U(rng);
+    ibvs::Pose T = ibvs::se3_exp(xi);
+    T(2, 3) += 0.6;
+    return T;
+  };
+  const auto measurements = [&](const ibvs::Pose& cMo, const ibvs::Pose& cdMo) {
+    Eigen::VectorXd m(task.measurement_size());
+    int k = 0;
+    const auto put = [&](const std::array<double, 6>& v) {
+      m.segment<6>(task.offset(k++)) = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(v.data());
+    };
+    if (kinds & 1) put(ibvs::PbvsFeature::measure(cMo, cdMo, ibvs::PbvsTarget::desired_camera));
+    if (kinds & 2) put(ibvs::PbvsFeature::measure(cMo, cdMo, ibvs::PbvsTarget::object));
+    if (kinds & 4) put(ibvs::Point25DFeature::measure(cMo, cdMo, P));
+    return m;
+  };
+  ibvs::Pose goal = pose(0.5);
+  Eigen::VectorXd md = measurements(goal, goal);
+  Points uvd(2, n);
+  for (int i = 0; i < n; ++i) uvd.col(i) = goal_point(rng);
+  const Eigen::VectorXd zd = Eigen::VectorXd::Ones(n);
+  for (int frame = 0; frame < 20; ++frame) {
+    if (rng() % 6 == 0) {  // the goal moves, or one of its values is refused
+      goal = pose(0.5);
+      md = measurements(goal, goal);
+      if (rng() % 4 == 0) md(static_cast<Eigen::Index>(rng() % md.size())) = std::numeric_limits<double>::quiet_NaN();
+    }
+    const Eigen::VectorXd m = rng() % 8 ? measurements(pose(1.0), goal) : md;
+    Points uv(2, n);
+    for (int i = 0; i < n; ++i) uv.col(i) = uvd.col(i) + Eigen::Vector2d(0.05 * U(rng), 0.05 * U(rng));
+    const Eigen::VectorXd z = Eigen::VectorXd::Constant(n, 1.0 + 0.2 * U(rng));
+    ibvs::PointMask valid = ibvs::PointMask::Constant(n, true);
+    for (int i = 0; i < n; ++i)
+      if (rng() % 7 == 0) valid(i) = false;
+    ibvs::detail::ServoCaches::forget(fresh);
+    const ibvs::Status sa = cached.update(uv, z, uvd, zd, m, md, valid, a);
+    const ibvs::Status sb = fresh.update(uv, z, uvd, zd, m, md, valid, b);
+    check_same(sa, a, sb, b);
+  }
+}
+
 // The split moments evaluation (the goal's side once, detail::moments_goal; then
 // detail::moments_evaluate) against MomentsFeature::evaluate itself: refused alike, and e and L
 // bit for bit.
@@ -252,5 +311,6 @@ void run_tests() {
   std::mt19937 rng(ibvs_test::seed);
   for (int c = 0; c < ibvs_test::cases; ++c) random_episode(rng);
   for (int c = 0; c < ibvs_test::cases / 2; ++c) moments_episode(rng);
+  for (int c = 0; c < ibvs_test::cases / 2; ++c) pose_episode(rng);
   for (int c = 0; c < 4 * ibvs_test::cases; ++c) moments_split_matches_evaluate(rng);
 }
