@@ -727,8 +727,8 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
       out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
       detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
       (!uses_zd || detail::valid_depths(depth_desired)) &&
-      (fused ? measurements.size() == size && measurements_desired.size() == size
-             : valid_measurements(task_, measurements) && valid_measurements(task_, measurements_desired)) &&
+      (plain || fused ? measurements.size() == size && measurements_desired.size() == size  // (plain: no blocks)
+                      : valid_measurements(task_, measurements) && valid_measurements(task_, measurements_desired)) &&
       (!fused || std::visit(
                      [&](auto& w) noexcept {
                        if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) return false;
