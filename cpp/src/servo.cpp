@@ -1,14 +1,21 @@
 #include "ibvs/servo.hpp"
 
+#include "ibvs/features/pose.hpp"
+
 #include "checks.hpp"
+#include "servo_caches.hpp"
+#include "features/moments_goal.hpp"
 #include "solve.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <algorithm>
+#include <array>
 #include <variant>
 #include <vector>
 
@@ -22,31 +29,6 @@ inline double wrap_difference(double d, double centre) noexcept {
   if (d > pi) d -= 2.0 * pi;
   else if (d <= -pi) d += 2.0 * pi;
   return std::isnan(centre) ? d : wrap_about(d, centre);
-}
-
-// Sum of the unit vectors of the angle differences of the blocks that have an
-// angle this frame (polar blocks that do not fall back, cylindrical blocks with
-// both radii > 0), from the points' directions: (cos, sin)(theta - theta*) =
-// (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
-// Masked: the blocks of the points marked valid only.
-template <bool Masked>
-AngleResultant angle_resultant(const Layout& layout, double polar_min_radius, const Eigen::Ref<const Points>& uv,
-                               const Eigen::Ref<const Points>& uvd, const PointMask* valid) noexcept {
-  AngleResultant sum;
-  for (const Block& b : layout.blocks()) {
-    if (b.representation == Representation::cartesian) continue;
-    if constexpr (Masked)
-      if (!(*valid)(b.point)) continue;
-    const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
-    const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
-    if (b.representation == Representation::polar
-            ? polar_falls_back(r2, polar_min_radius) || polar_falls_back(rd2, polar_min_radius)
-            : !(r2 > 0.0 && rd2 > 0.0))
-      continue;
-    const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
-    if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
-  }
-  return sum;
 }
 
 // A 64-bit hash of a row or point index (splitmix64's finaliser): sets of them are xored.
@@ -92,6 +74,73 @@ std::uint64_t fallback_pattern(const Layout& layout, double polar_min_radius, co
   return bits;
 }
 
+// The goal side of a point's polar and cylindrical blocks, r* = sqrt(u*^2 + v*^2) and
+// theta* = atan2(v*, u*), kept while the goal point's bits are unchanged (the goal is usually
+// fixed for many frames: this saves an atan2 and a sqrt per block). Both are functions of
+// (u*, v*) alone (no option enters them), computed from the caller's r*^2 by the same
+// expressions as before, so a cached value is the uncached one bit for bit; keyed on the exact
+// bits, so -0 and +0 (atan2 tells them apart) are different goals.
+struct GoalPoint {
+  std::uint64_t ud = ~std::uint64_t{0}, vd = ~std::uint64_t{0};  // the bits of (u*, v*); a NaN: none yet
+  double rd = 0.0, theta = 0.0;
+
+  inline static std::uint64_t bits(double x) noexcept {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+  }
+  // This goal point's (r*, theta*), refilled when (u*, v*) changed; rd2 = u* u* + v* v*.
+  const GoalPoint& at(double u_d, double v_d, double rd2) noexcept {
+    const std::uint64_t bu = bits(u_d), bv = bits(v_d);
+    if (bu != ud || bv != vd) {
+      ud = bu;
+      vd = bv;
+      rd = std::sqrt(rd2);
+      theta = std::atan2(v_d, u_d);
+    }
+    return *this;
+  }
+};
+
+// The goal's side of a feature block of a kind the library knows, kept while the bits of the
+// block's goal measurement are unchanged: image moments (the goal's check and evaluation,
+// detail::moments_goal), PBVS and 2.5-D (the goal's check and value: their alignment, error and
+// evaluation are Feature's defaults, so their error is value(m) - value(m*) and their step is
+// check(m), check(m*), that error and interaction(m)). Other kinds are evaluated as they are.
+struct FeatureGoal {
+  const MomentsFeature* moments = nullptr;  // the block, when it is image moments
+  const PbvsFeature* pbvs = nullptr;        // ... PBVS
+  const Point25DFeature* point25d = nullptr;  // ... 2.5-D
+  bool filled = false;
+  std::array<double, MomentsFeature::measurement_size> key{};  // the goal measurement it is from
+  detail::MomentsGoal goal;      // moments
+  bool refused = false;          // PBVS, 2.5-D: check(m*) refused m*
+  std::array<double, 6> sd{};    // PBVS, 2.5-D: value(m*)
+
+  // Refilled when the goal measurement (size doubles) changed.
+  template <class Fill>
+  void keep(const double* md, int size, Fill&& fill) noexcept {
+    const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(size);
+    if (filled && std::memcmp(key.data(), md, bytes) == 0) return;
+    std::memcpy(key.data(), md, bytes);
+    fill();
+    filled = true;
+  }
+};
+
+// Feature::evaluate (its default: check(m), check(m*), align (none), error = value(m) - value(m*),
+// interaction(m)) for a kind F that keeps all the defaults, with the goal's check and value given.
+template <class F>
+bool evaluate_with_goal(const F& f, const FeatureGoal& g, double* m, double* e, Eigen::Ref<MatrixX6> L) noexcept {
+  int entry = -1;
+  if (f.check(m, entry) || g.refused) return false;
+  double s[6];
+  f.value(m, s);
+  for (int i = 0; i < 6; ++i) e[i] = s[i] - g.sd[i];
+  f.interaction(m, L);
+  return true;
+}
+
 // Workspace for one row count: the assembled J and e, and the solver (see
 // solve.hpp for the sizes: Rows = 8 or 16, or Dynamic bounded by MaxRows).
 template <int Rows, int MaxRows = Rows>
@@ -101,7 +150,10 @@ struct Work {
   using Vec = typename Solve::Vec;
 
   explicit Work(Eigen::Index m)
-      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)), e(Vec::Zero(J.rows())), solver(J.rows()) {}
+      : J(Jac::Zero(std::max<Eigen::Index>(m, 6), 6)),
+        e(Vec::Zero(J.rows())),
+        solver(J.rows()),
+        waiting(static_cast<std::size_t>(m / 2)) {}
 
   Jac J;
   Vec e;
@@ -123,11 +175,12 @@ struct Work {
   // at r = 0 takes the other point's direction (alpha = 0 there): its block is then
   // the Cartesian block in a rotated basis, so no fallback is needed.
   void put_cylindrical(Eigen::Index row, InteractionMatrix which, double u, double v, double r2, double z, double ud,
-                       double vd, double rd2, double zd, double centre) noexcept {
-    const double r = std::sqrt(r2), rd = std::sqrt(rd2);
+                       double vd, double rd2, double zd, double centre, GoalPoint& goal) noexcept {
+    const GoalPoint& g = goal.at(ud, vd, rd2);
+    const double r = std::sqrt(r2), rd = g.rd;
     double dth = 0.0;
     if (r2 > 0.0 && rd2 > 0.0) {
-      dth = wrap_difference(std::atan2(v, u) - std::atan2(vd, ud), centre);
+      dth = wrap_difference(std::atan2(v, u) - g.theta, centre);
     }
     e(row) = r - rd;
     e(row + 1) = r * dth;
@@ -142,18 +195,37 @@ struct Work {
   // A hash of the lost points of this step (drop_lost), for the smooth law.
   std::uint64_t key = 0;
 
-  // Fills J and e for this frame; returns the number of polar fallbacks. Angle differences are
-  // wrapped about `centre` (NaN: per point, eq. 13).
+  // The blocks whose angle waits for the consistent wrap's centre (assemble() with a resultant):
+  // the row of each polar angle difference, or the index of each cylindrical block (~row: its
+  // rows depend on the wrapped angle); `n_waiting` of them this frame.
+  std::vector<Eigen::Index> waiting;
+  std::size_t n_waiting = 0;
+
+  // Fills J and e for this frame; returns the number of polar fallbacks. goal: one GoalPoint per
+  // point (the cache). Without `sum` (AngleWrap::per_point) angle differences are wrapped by eq.
+  // 13 alone. With it (consistent wrap), in the same pass, the unit vector of the angle difference
+  // of each block that has an angle this frame (polar blocks that do not fall back, cylindrical
+  // blocks with both radii > 0; of the points marked valid only) is added to `sum` in block order,
+  // the polar angle rows are left at eq. 13 and the cylindrical blocks are left out:
+  // wrap_about_centre() completes them once the centre is known.
   int assemble(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
                const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
-               const Eigen::Ref<const Eigen::VectorXd>& zd, double centre) noexcept {
+               const Eigen::Ref<const Eigen::VectorXd>& zd, GoalPoint* goal, const PointMask* valid,
+               AngleResultant* sum) noexcept {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
     int fallbacks = 0;
+    n_waiting = 0;
     Eigen::Index row = 0;
     for (const Block& b : layout.blocks()) {
       const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
       const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
       if (b.representation == Representation::cylindrical) {
-        put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre);
+        if (sum) {
+          if ((!valid || (*valid)(b.point)) && r2 > 0.0 && rd2 > 0.0) add_direction(*sum, u, v, r2, ud, vd, rd2);
+          waiting[n_waiting++] = ~row;
+        } else {
+          put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), nan, goal[b.point]);
+        }
         row += 2;
         continue;
       }
@@ -163,10 +235,15 @@ struct Work {
         ++fallbacks;
       }
       if (polar) {
+        if (sum) {
+          if (!valid || (*valid)(b.point)) add_direction(*sum, u, v, r2, ud, vd, rd2);
+          waiting[n_waiting++] = row + 1;
+        }
         // Each radius and angle once: error (eq. 13) and rows -(eq. 7) from (r, c, s).
-        const double r = std::sqrt(r2), rd = std::sqrt(rd2);
+        const GoalPoint& g = goal[b.point].at(ud, vd, rd2);
+        const double r = std::sqrt(r2), rd = g.rd;
         e(row) = r - rd;
-        e(row + 1) = wrap_difference(std::atan2(v, u) - std::atan2(vd, ud), centre);
+        e(row + 1) = wrap_difference(std::atan2(v, u) - g.theta, nan);
         const auto cur = [&] { return polar_jacobian(r, u / r, v / r, z(b.point)); };
         const auto des = [&] { return polar_jacobian(rd, ud / rd, vd / rd, zd(b.point)); };
         put(row, o.jacobian, cur, des);
@@ -180,6 +257,35 @@ struct Work {
       row += 2;
     }
     return fallbacks;
+  }
+
+  // The resultant's term of one block, from the points' directions: (cos, sin)(theta - theta*) =
+  // (u u* + v v*, v u* - u v*) / (r r*), no trigonometric call.
+  static void add_direction(AngleResultant& sum, double u, double v, double r2, double ud, double vd,
+                            double rd2) noexcept {
+    const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
+    if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
+  }
+
+  // After assemble() with a resultant: the polar angle rows wrapped about the centre (NaN: as
+  // they are, eq. 13) and the cylindrical blocks computed, with the same values as a single pass
+  // that knew the centre (wrap_difference() is eq. 13, then wrap_about the centre).
+  void wrap_about_centre(const Layout& layout, const ServoOptions& o, const Eigen::Ref<const Points>& uv,
+                         const Eigen::Ref<const Eigen::VectorXd>& z, const Eigen::Ref<const Points>& uvd,
+                         const Eigen::Ref<const Eigen::VectorXd>& zd, GoalPoint* goal, double centre) noexcept {
+    const bool wrap = !std::isnan(centre);
+    for (std::size_t i = 0; i < n_waiting; ++i) {
+      const Eigen::Index w = waiting[i];
+      if (w >= 0) {
+        if (wrap) e(w) = wrap_about(e(w), centre);
+        continue;
+      }
+      const Eigen::Index row = ~w;
+      const Block& b = layout.blocks()[static_cast<std::size_t>(row / 2)];
+      const double u = uv(0, b.point), v = uv(1, b.point), ud = uvd(0, b.point), vd = uvd(1, b.point);
+      const double r2 = u * u + v * v, rd2 = ud * ud + vd * vd;
+      put_cylindrical(row, o.jacobian, u, v, r2, z(b.point), ud, vd, rd2, zd(b.point), centre, goal[b.point]);
+    }
   }
 
   // Rows after the points: each feature block's error and interaction matrix, from the current
@@ -235,13 +341,36 @@ struct Work {
   // assemble_features() for InteractionMatrix::current with each block's check folded in
   // (Feature::evaluate: the same rows, bit for bit, each measurement evaluated once where a kind
   // can); false, with nothing more computed, when a measurement is refused.
-  bool evaluate_features(const Task& task, const double* m, const double* md, double* aligned) noexcept {
+  // goal: each block's FeatureGoal (the goal cache).
+  bool evaluate_features(const Task& task, const double* m, const double* md, double* aligned,
+                         FeatureGoal* goal) noexcept {
     for (int k = 0; k < task.n_features(); ++k) {
       const Feature& f = task.feature(k);
       const int row = task.row(k), off = task.offset(k);
       double* mc = aligned + off;
       std::copy(m + off, m + off + f.size(), mc);
-      if (f.evaluate(mc, md + off, e.data() + row, J.middleRows(row, f.rows()))) return false;
+      FeatureGoal& g = goal[k];
+      const double* gd = md + off;
+      if (g.moments) {
+        g.keep(gd, f.size(), [&] { detail::moments_goal(*g.moments, gd, g.goal); });
+        if (detail::moments_evaluate(*g.moments, mc, g.goal, e.data() + row, J.middleRows(row, f.rows())))
+          return false;
+      } else if (g.pbvs || g.point25d) {
+        const auto fill = [&](const auto& kind) {
+          int entry = -1;
+          g.refused = kind.check(gd, entry) != nullptr;
+          if (!g.refused) kind.value(gd, g.sd.data());
+        };
+        if (g.pbvs) {
+          g.keep(gd, f.size(), [&] { fill(*g.pbvs); });
+          if (!evaluate_with_goal(*g.pbvs, g, mc, e.data() + row, J.middleRows(row, 6))) return false;
+        } else {
+          g.keep(gd, f.size(), [&] { fill(*g.point25d); });
+          if (!evaluate_with_goal(*g.point25d, g, mc, e.data() + row, J.middleRows(row, 6))) return false;
+        }
+      } else if (f.evaluate(mc, gd, e.data() + row, J.middleRows(row, f.rows()))) {
+        return false;
+      }
     }
     return true;
   }
@@ -285,6 +414,8 @@ struct Servo::Kernel {
   MatrixX6 spare;           // a feature block's rows at the goal (InteractionMatrix::mean)
   Points uv_valid;          // uv and depth with the lost points at their goal (ServoInput::valid)
   Eigen::VectorXd z_valid;
+  std::vector<GoalPoint> goal;  // each point's goal-side polar values (sized here: no allocation per frame)
+  std::vector<FeatureGoal> feature_goal;  // each feature block's goal side (image moments)
 
   explicit Kernel(const Task& task) {
     const int rows = task.rows();
@@ -303,8 +434,21 @@ struct Servo::Kernel {
     spare = MatrixX6::Zero(largest, 6);
     uv_valid = Points::Zero(2, task.n_points());
     z_valid = Eigen::VectorXd::Ones(task.n_points());
+    goal.assign(static_cast<std::size_t>(task.n_points()), GoalPoint{});
+    feature_goal.assign(static_cast<std::size_t>(task.n_features()), FeatureGoal{});
+    for (int k = 0; k < task.n_features(); ++k) {  // the kinds are final classes: these are exact
+      FeatureGoal& g = feature_goal[static_cast<std::size_t>(k)];
+      g.moments = dynamic_cast<const MomentsFeature*>(&task.feature(k));
+      g.pbvs = dynamic_cast<const PbvsFeature*>(&task.feature(k));
+      g.point25d = dynamic_cast<const Point25DFeature*>(&task.feature(k));
+    }
   }
 };
+
+void detail::ServoCaches::forget(Servo& servo) noexcept {
+  for (GoalPoint& g : servo.kernel_->goal) g = GoalPoint{};
+  for (FeatureGoal& g : servo.kernel_->feature_goal) g.filled = false;
+}
 
 ServoInput::ServoInput(const Task& task)
     : uv(Points::Zero(2, task.n_points())),
@@ -583,13 +727,13 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
       out.error.size() == m && out.jacobian.rows() == m && detail::valid_points(uv) &&
       detail::valid_points(uv_desired) && detail::valid_depths(depth) &&
       (!uses_zd || detail::valid_depths(depth_desired)) &&
-      (fused ? measurements.size() == size && measurements_desired.size() == size
-             : valid_measurements(task_, measurements) && valid_measurements(task_, measurements_desired)) &&
+      (plain || fused ? measurements.size() == size && measurements_desired.size() == size  // (plain: no blocks)
+                      : valid_measurements(task_, measurements) && valid_measurements(task_, measurements_desired)) &&
       (!fused || std::visit(
                      [&](auto& w) noexcept {
                        if constexpr (std::is_same_v<std::decay_t<decltype(w)>, std::monostate>) return false;
                        else return w.evaluate_features(task_, measurements.data(), measurements_desired.data(),
-                                                       kernel.aligned.data());
+                                                       kernel.aligned.data(), kernel.feature_goal.data());
                      },
                      kernel.work));
   if (!ok) {
@@ -613,15 +757,17 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
         const bool feature_angles = !plain && consistent &&
                                     w.record_feature_angles(task_, kernel.aligned.data(), measurements_desired.data(),
                                                             kernel.angles.data());
-        // Consistent wrap: this frame's circular mean, continued from the previous frame's centre.
+        // Consistent wrap: this frame's circular mean (the points' resultant summed by assemble()),
+        // continued from the previous frame's centre; then the angles wrapped about it.
         double centre = std::numeric_limits<double>::quiet_NaN();
+        AngleResultant sum;
+        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, kernel.goal.data(), valid,
+                                         consistent ? &sum : nullptr);
         if (consistent) {
-          AngleResultant sum = valid ? angle_resultant<true>(layout, o.polar_min_radius, uv, uv_desired, valid)
-                                     : angle_resultant<false>(layout, o.polar_min_radius, uv, uv_desired, valid);
           if (feature_angles) w.add_feature_angles(task_, kernel.angles.data(), sum);
           if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
+          w.wrap_about_centre(layout, o, uv, depth, uv_desired, depth_desired, kernel.goal.data(), centre);
         }
-        out.polar_fallbacks = w.assemble(layout, o, uv, depth, uv_desired, depth_desired, centre);
         if (!plain) {
           if (feature_angles && !std::isnan(centre)) w.wrap_feature_angles(task_, kernel.angles.data(), centre);
           w.weigh(task_);

@@ -168,6 +168,10 @@ struct ServoOutput {
   mutable bool pending_ = false;  ///< gram_ holds a J^T J whose eigenvalues are not computed yet
 };
 
+namespace detail {
+struct ServoCaches;  // cpp/src/servo_caches.hpp: the goal caches, for the library's white-box tests
+}
+
 /// The control law. Build once per layout; call update() every frame.
 ///
 /// velocity = -s * g * J+ e with g = options.gain, or options.adaptive_gain(|e|)
@@ -291,6 +295,7 @@ class Servo {
                        const Eigen::Ref<const Eigen::VectorXd>& depth_desired, ServoOutput& out) noexcept;
 
  private:
+  friend struct detail::ServoCaches;
   struct Kernel;  // sized workspace: fixed 8 or 16 rows, or dynamic
   Status step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Eigen::VectorXd>& depth,
               const Eigen::Ref<const Points>& uv_desired, const Eigen::Ref<const Eigen::VectorXd>& depth_desired,

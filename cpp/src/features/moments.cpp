@@ -1,5 +1,7 @@
 #include "ibvs/features/moments.hpp"
 
+#include "moments_goal.hpp"
+
 #include "ibvs/angle_wrap.hpp"
 #include "ibvs/limits.hpp"
 
@@ -176,13 +178,19 @@ Moments polygon_moments(Eigen::Index n, const XY& xy) noexcept {
 double wrap_half(double d) noexcept { return 0.5 * wrap_angle(2.0 * d); }  // into (-pi/2, pi/2]
 
 // e = s (-) s* of the selected rows: alpha's difference wrapped (over the full turn, or modulo pi).
-void differences(const Evaluation& ev, const Evaluation& evd, unsigned rows, MomentsFeature::Alpha alpha,
+// sd: the goal's six values.
+void differences(const Evaluation& ev, const double* sd, unsigned rows, MomentsFeature::Alpha alpha,
                  double* e) noexcept {
   for (unsigned b = 0, r = 0; b < 6; ++b)
     if ((rows >> b) & 1u) {
-      const double d = ev.s[b].v - evd.s[b].v;
+      const double d = ev.s[b].v - sd[b];
       e[r++] = b < 5 ? d : (alpha == MomentsFeature::Alpha::third_order ? wrap_angle(d) : wrap_half(d));
     }
+}
+void differences(const Evaluation& ev, const Evaluation& evd, unsigned rows, MomentsFeature::Alpha alpha,
+                 double* e) noexcept {
+  const double sd[6] = {evd.s[0].v, evd.s[1].v, evd.s[2].v, evd.s[3].v, evd.s[4].v, evd.s[5].v};
+  differences(ev, sd, rows, alpha, e);
 }
 
 }  // namespace
@@ -335,6 +343,30 @@ const char* MomentsFeature::evaluate(double* m, const double* md, double* e, Eig
   differences(ev, evd, rows_, alpha_, e);
   for (unsigned b = 0, r = 0; b < 6; ++b)
     if ((rows_ >> b) & 1u) L.row(r++) = ev.s[b].d;
+  return nullptr;
+}
+
+void detail::moments_goal(const MomentsFeature& f, const double* md, MomentsGoal& goal) noexcept {
+  int entry = -1;
+  goal.refused = check_entries(md, entry);
+  if (goal.refused) return;
+  const Evaluation evd = evaluation(md, f.source(), f.invariants(), f.alpha_kind());
+  goal.refused = check_evaluation(evd, f.selected(), f.invariants(), f.alpha_kind());
+  for (int b = 0; b < 6; ++b) goal.s[b] = evd.s[b].v;
+}
+
+// MomentsFeature::evaluate with the goal's evaluation given: differences() reads the goal's
+// values only.
+const char* detail::moments_evaluate(const MomentsFeature& f, double* m, const MomentsGoal& goal, double* e,
+                                     Eigen::Ref<MatrixX6> L) noexcept {
+  int entry = -1;
+  if (const char* why = check_entries(m, entry)) return why;
+  const Evaluation ev = evaluation(m, f.source(), f.invariants(), f.alpha_kind());
+  if (const char* why = check_evaluation(ev, f.selected(), f.invariants(), f.alpha_kind())) return why;
+  if (goal.refused) return goal.refused;
+  differences(ev, goal.s, f.selected(), f.alpha_kind(), e);
+  for (unsigned b = 0, r = 0; b < 6; ++b)
+    if ((f.selected() >> b) & 1u) L.row(r++) = ev.s[b].d;
   return nullptr;
 }
 
