@@ -134,6 +134,9 @@ def test_free_world_normalised_camera_has_no_camera_info(tmp_path):
 
 INTERRUPTED = textwrap.dedent("""
     import os, signal, sys
+    # Python's own Ctrl-C handler, even when the test runs in a shell's background job (which starts
+    # its children with SIGINT ignored, and Python then leaves it ignored).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     import ibvs
     from ibvs import sim
     from ibvs.ros import recorder
