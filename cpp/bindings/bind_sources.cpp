@@ -17,6 +17,15 @@ namespace py = pybind11;
 using namespace ibvs;
 using namespace ibvs::py_convert;
 
+namespace ibvs::py_pose {  // bind_pose.cpp
+PbvsTarget target_arg(py::handle obj);
+const char* target_name(PbvsTarget t);
+Pose pose_arg(py::handle obj, const char* name);
+}  // namespace ibvs::py_pose
+namespace ibvs::py_segell {  // bind_segment_ellipse.cpp
+Eigen::Vector3d vector3(py::handle obj, const char* name);
+}  // namespace ibvs::py_segell
+
 namespace ibvs::py_sources {
 
 MomentsFeature::Source moments_source_arg(py::handle obj) {
