@@ -31,6 +31,10 @@ inline double wrap_difference(double d, double centre) noexcept {
   return std::isnan(centre) ? d : wrap_about(d, centre);
 }
 
+// Angle differences within +-1.5 rad are not moved by a wrap about a centre within +-pi / 2: their
+// distance to it is below 1.5 + pi / 2 < pi with a margin (0.07) far above rounding.
+constexpr double small_angle_difference = 1.5;
+
 // A 64-bit hash of a row or point index (splitmix64's finaliser): sets of them are xored.
 inline std::uint64_t mix(std::uint64_t x) noexcept {
   x += 0x9e3779b97f4a7c15ULL;
@@ -265,6 +269,14 @@ struct Work {
                             double rd2) noexcept {
     const double k = 1.0 / std::sqrt(r2 * rd2);  // inf only if r2 * rd2 underflows: that block is left out
     if (std::isfinite(k)) sum.add((u * ud + v * vd) * k, (v * ud - u * vd) * k);
+  }
+
+  // After assemble() with a resultant: whether every block waiting for the centre is a polar
+  // angle row within +-limit (eq. 13) (a cylindrical block waits to be computed).
+  bool angles_within(double limit) const noexcept {
+    for (std::size_t i = 0; i < n_waiting; ++i)
+      if (waiting[i] < 0 || !(std::abs(e(waiting[i])) <= limit)) return false;
+    return true;
   }
 
   // After assemble() with a resultant: the polar angle rows wrapped about the centre (NaN: as
@@ -516,7 +528,7 @@ double ServoOutput::condition() const noexcept {
 }
 
 Servo::Servo(Task task, ServoOptions options)
-    : task_(std::move(task)), wrap_centre_(std::numeric_limits<double>::quiet_NaN()) {
+    : task_(std::move(task)) {
   if (task_.rows() == 0) throw std::invalid_argument("ibvs: task: no points and no feature blocks (nothing to servo)");
   set_options(options);
   kernel_ = std::make_unique<Kernel>(task_);
@@ -570,7 +582,7 @@ void Servo::validate(const ServoOptions& o) {
 
 void Servo::set_options(const ServoOptions& options) {
   validate(options);
-  if (options.angle_wrap != options_.angle_wrap) wrap_centre_ = std::numeric_limits<double>::quiet_NaN();
+  if (options.angle_wrap != options_.angle_wrap) wrap_centre_.set(std::numeric_limits<double>::quiet_NaN());
   // A change of the law (not of a gain or a limit, which may be scheduled every frame): a transition.
   if (options.angle_wrap != options_.angle_wrap || options.jacobian != options_.jacobian ||
       options.polar_min_radius != options_.polar_min_radius || options.cartesian_near_goal != options_.cartesian_near_goal)
@@ -582,7 +594,7 @@ void Servo::set_options(const ServoOptions& options) {
 }
 
 void Servo::reset(const Twist& current) noexcept {
-  wrap_centre_ = std::numeric_limits<double>::quiet_NaN();
+  wrap_centre_.set(std::numeric_limits<double>::quiet_NaN());
   smoother_.switch_law(current);
   near_goal_ = stopping_ = false;
 }
@@ -765,8 +777,18 @@ Status Servo::step(const Eigen::Ref<const Points>& uv, const Eigen::Ref<const Ei
                                          consistent ? &sum : nullptr);
         if (consistent) {
           if (feature_angles) w.add_feature_angles(task_, kernel.angles.data(), sum);
-          if (sum.defined()) centre = wrap_centre_ = continued_centre(sum.mean(), wrap_centre_);
-          w.wrap_about_centre(layout, o, uv, depth, uv_desired, depth_desired, kernel.goal.data(), centre);
+          if (sum.defined() && !feature_angles && sum.c > 0.0 && w.angles_within(small_angle_difference)) {
+            // The centre is this frame's mean (continued_centre's choice when |mean| < pi / 2) and
+            // wrapping about it moves no angle (each |difference| <= 1.5 and |centre| <= pi / 2):
+            // its atan2 waits until a frame reads it.
+            wrap_centre_.defer(sum);
+          } else {
+            if (sum.defined()) {
+              centre = continued_centre(sum.mean(), wrap_centre_.get());
+              wrap_centre_.set(centre);
+            }
+            w.wrap_about_centre(layout, o, uv, depth, uv_desired, depth_desired, kernel.goal.data(), centre);
+          }
         }
         if (!plain) {
           if (feature_angles && !std::isnan(centre)) w.wrap_feature_angles(task_, kernel.angles.data(), centre);

@@ -247,6 +247,15 @@ void continuity() {
   paper_points(rotz(-pi / 2 - 0.2), c, uvd, z);
   servo.update(c, z, uvd, z, out);  // pi / 2 + 0.2, not -3 pi / 2 + 0.2
   CHECK_NEAR(out.error(1), pi / 2 + 0.2, 1e-9);
+  // A frame whose angles are all small leaves its centre's atan2 for later (Servo's WrapCentre):
+  // the next frame still continues from it. Points turned by +1.45 (centre 1.45), then by
+  // -(pi - 0.01): continued, pi + 0.01 (1.7 rad from 1.45), not the principal -pi + 0.01.
+  servo.reset();
+  paper_points(rotz(-1.45), c, uvd, z);
+  servo.update(c, z, uvd, z, out);
+  for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), 1.45, 1e-9);
+  servo.update(a, z, uvd, z, out);
+  for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), pi + 0.01, 1e-9);
 }
 
 // Noisy starts within 0.5 deg of the half-turn, both signs, latency 0-2: no translation

@@ -318,7 +318,32 @@ class Servo {
   Twist stop_from_ = Twist::Zero();
   std::unique_ptr<Kernel> kernel_;
   detail::PixelFrontEnd pixels_;  // camera and normalised points of update_pixels()
-  double wrap_centre_;  // previous frame's angle-wrap centre; NaN: none (after construction / reset())
+  // The previous frame's angle-wrap centre; NaN: none (after construction / reset()). A frame whose
+  // centre is its circular mean and moves no angle row (Servo::step) keeps its resultant instead, and
+  // the centre (one atan2) is computed if a later frame reads it: the same value, when it is needed.
+  class WrapCentre {
+   public:
+    double get() noexcept {
+      if (pending_) {
+        value_ = sum_.mean();
+        pending_ = false;
+      }
+      return value_;
+    }
+    void set(double centre) noexcept {
+      value_ = centre;
+      pending_ = false;
+    }
+    void defer(const AngleResultant& sum) noexcept {
+      sum_ = sum;
+      pending_ = true;
+    }
+
+   private:
+    double value_ = std::numeric_limits<double>::quiet_NaN();
+    AngleResultant sum_;
+    bool pending_ = false;
+  } wrap_centre_;
 };
 
 /// Default switching radius of the automatic hybrid (normalised units: 50 px
