@@ -8,7 +8,8 @@
 #include <stdexcept>
 #include <string>
 
-// The one instantiation of JacobiSVD<MatrixXd> (svd_instances.hpp), shared with the C++ tests.
+// The one instantiation of JacobiSVD<MatrixXd> (svd_instances.hpp), shared with JointMapping, SecondaryTask
+// and the C++ tests.
 template class Eigen::JacobiSVD<Eigen::MatrixXd>;
 
 namespace ibvs {

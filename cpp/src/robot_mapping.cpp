@@ -11,9 +11,6 @@
 #include <stdexcept>
 #include <string>
 
-// The one instantiation of the joint-space SVD (svd_instances.hpp), shared with secondary_task.cpp.
-template class Eigen::JacobiSVD<ibvs::detail::JointSvdMatrix>;
-
 namespace ibvs {
 
 const char* to_string(JacobianFrame f) noexcept {

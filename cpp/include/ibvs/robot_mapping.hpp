@@ -173,13 +173,12 @@ class JointMapping {
   int n_;
   Pose eMc_;
   JointMappingOptions options_;
-  // Both sizes dynamic with compile-time bounds: Eigen's QR preconditioners
-  // assert on a fixed 6-row type with fewer than 6 columns.
   bool normal_route(const JointMappingInput& in, JointMappingOutput& out) noexcept;
   Status finish(JointMappingOutput& out, Status status) noexcept;
-  using SvdMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, max_joints>;
-  SvdMatrix work_;
-  Eigen::JacobiSVD<SvdMatrix> svd_;
+  // Dynamic storage sized once by the constructor (6 x n): compute() on a matrix of the same size allocates
+  // nothing, and JacobiSVD<MatrixXd> is the one instantiation the library shares with damped_pinv().
+  Eigen::MatrixXd work_;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd_;
 };
 
 }  // namespace ibvs

@@ -146,9 +146,10 @@ class SecondaryTask {
   bool input_ok(const SecondaryTaskInput& in) const noexcept;
   int n_;
   SecondaryTaskOptions options_;
-  using SvdMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, max_joints>;
-  SvdMatrix work_;
-  Eigen::JacobiSVD<SvdMatrix> svd_;
+  // Dynamic storage sized once by the constructor (6 x n): compute() on a matrix of the same size allocates
+  // nothing, and JacobiSVD<MatrixXd> is the one instantiation the library shares with damped_pinv().
+  Eigen::MatrixXd work_;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd_;
   // The projector of the last update: P z = z - sum_{i<rank_} V_i (V_i . z) - weight_ h (h . z) / (h . h) ...
   Eigen::Matrix<double, max_joints, 6> V_;  // the rank_ right singular vectors of B (eq. 1)
   int rank_ = 0;

@@ -240,7 +240,8 @@ struct Metrics {
 
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-/// Row k = frame k; the first `frames` rows are valid. Quantities the last
+/// Row k = frame k; the first `frames` rows are valid (the others hold NaN,
+/// or what an earlier run of the same Episode wrote). Quantities the last
 /// frame could not compute (an event stopped it) are NaN.
 ///
 /// uv, rtheta and depth record what the controller was given, whatever the

@@ -15,29 +15,32 @@
 namespace ibvs::sim::stages {
 
 /// K frames of n points, m error rows and s feature-block measurement values, no robot (q, qdot: 0 x 6).
+/// Every value NaN until a run writes its frames: the rows past History::frames are never read uninitialised.
 inline void allocate(History& h, Eigen::Index K, Eigen::Index n, Eigen::Index m, Eigen::Index s = 0) {
-  h.time.resize(K);
-  h.pose.resize(K, 16);
-  h.twist.resize(K, 6);
-  h.uv.resize(K, 2 * n);
-  h.rtheta.resize(K, 2 * n);
-  h.depth.resize(K, n);
-  h.measured.resize(K, 2 * n);
-  h.projected.resize(K, 2 * n);
-  h.error.resize(K, m);
-  h.measurements.resize(K, s);
-  h.error_norm.resize(K);
-  h.sigma_min.resize(K);
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  h.time.setConstant(K, nan);
+  h.pose.setConstant(K, 16, nan);
+  h.twist.setConstant(K, 6, nan);
+  h.uv.setConstant(K, 2 * n, nan);
+  h.rtheta.setConstant(K, 2 * n, nan);
+  h.depth.setConstant(K, n, nan);
+  h.measured.setConstant(K, 2 * n, nan);
+  h.projected.setConstant(K, 2 * n, nan);
+  h.error.setConstant(K, m, nan);
+  h.measurements.setConstant(K, s, nan);
+  h.error_norm.setConstant(K, nan);
+  h.sigma_min.setConstant(K, nan);
   h.q.resize(0, 6);
   h.qdot.resize(0, 6);
   h.manipulability.resize(0);
 }
 
-/// The robot's columns: q, qdot (K x joints) and the manipulability.
+/// The robot's columns: q, qdot (K x joints) and the manipulability, NaN until written.
 inline void allocate_joints(History& h, Eigen::Index joints) {
-  h.q.resize(h.time.size(), joints);
-  h.qdot.resize(h.time.size(), joints);
-  h.manipulability.resize(h.time.size());
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  h.q.setConstant(h.time.size(), joints, nan);
+  h.qdot.setConstant(h.time.size(), joints, nan);
+  h.manipulability.setConstant(h.time.size(), nan);
 }
 
 /// Frame k at time t: world <- camera pose and (q non-null) the robot's joints.
