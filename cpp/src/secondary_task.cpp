@@ -52,6 +52,12 @@ SecondaryTaskInput::SecondaryTaskInput(int n)
 SecondaryTaskOutput::SecondaryTaskOutput(int n)
     : qdot(JointVector::Zero(n)), secondary(JointVector::Zero(n)), avoidance(JointVector::Zero(n)) {}
 
+SecondaryTask::SecondaryTask(const SecondaryTask&) = default;
+SecondaryTask::SecondaryTask(SecondaryTask&&) noexcept = default;
+SecondaryTask& SecondaryTask::operator=(const SecondaryTask&) = default;
+SecondaryTask& SecondaryTask::operator=(SecondaryTask&&) noexcept = default;
+SecondaryTask::~SecondaryTask() = default;
+
 SecondaryTask::SecondaryTask(int n, SecondaryTaskOptions options)
     : n_(n), options_(std::move(options)), work_(6, std::max(1, std::min(n, max_joints))),
       svd_(6, std::max(1, std::min(n, max_joints)), Eigen::ComputeThinU | Eigen::ComputeThinV),

@@ -8,6 +8,7 @@
 #include <ibvs/ibvs.hpp>
 #include <ibvs/sim/sim.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <utility>
 #include <vector>
@@ -46,7 +47,20 @@ int main() {
   ibvs::sim::EpisodeResult result = episode.run(start, ibvs::Pose::Identity());
   ibvs::sim::EpisodeResult result2 = std::move(result);
   ibvs::sim::Episode episode2 = std::move(episode);
+  // The joint-space mapping and secondary task (their SVD's workspace is library-allocated).
+  ibvs::JointMapping mapping(7, ibvs::Pose::Identity());
+  ibvs::JointMapping mapping2 = mapping;
+  mapping2 = std::move(mapping);
+  ibvs::JointMappingInput jin(7);
+  ibvs::JointMappingOutput jout(7);
+  jin.jacobian.setIdentity();
+  jin.twist << 0.1, 0.0, 0.0, 0.0, 0.0, 0.2;
+  ibvs::SecondaryTask task(7);
+  ibvs::SecondaryTask task2 = task;
+  task = std::move(task2);
+  const bool joints_ok = mapping2.update(jin, jout) == ibvs::Status::ok && std::abs(jout.qdot(0) - 0.1) < 1e-12;
   std::printf("status %d sigma_min %.6g condition %.6g velocity %.6g; episode: %d frames\n", static_cast<int>(status),
               outs[2].sigma_min(), outs[2].condition(), outs[3].velocity.norm(), result2.history.frames);
-  return status == ibvs::Status::ok && outs[3].velocity == outs[2].velocity && result2.history.frames > 0 ? 0 : 1;
+  const bool servo_ok = status == ibvs::Status::ok && outs[3].velocity == outs[2].velocity;
+  return servo_ok && result2.history.frames > 0 && joints_ok ? 0 : 1;
 }

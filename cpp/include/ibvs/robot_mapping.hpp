@@ -81,7 +81,7 @@
 
 namespace ibvs {
 
-/// Largest number of joints a JointMapping handles (stack storage).
+/// Largest number of joints a JointMapping handles (the bound of its fixed-capacity vectors and Jacobians).
 inline constexpr int max_joints = 16;
 
 using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, max_joints, 1>;
@@ -147,6 +147,13 @@ class JointMapping {
   /// bMc base <- camera (options.mounting = eye_to_hand). Throws
   /// std::invalid_argument naming the bad argument.
   JointMapping(int n, const Pose& eMc, JointMappingOptions options = {});
+  // Special members defined in the library (which allocates the SVD's workspace), for consumers built with other
+  // flags.
+  JointMapping(const JointMapping&);
+  JointMapping(JointMapping&&) noexcept;
+  JointMapping& operator=(const JointMapping&);
+  JointMapping& operator=(JointMapping&&) noexcept;
+  ~JointMapping();
 
   int joints() const noexcept { return n_; }
   const Pose& eMc() const noexcept { return eMc_; }

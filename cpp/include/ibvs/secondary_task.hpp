@@ -129,6 +129,13 @@ class SecondaryTask {
  public:
   /// n joints in [1, max_joints]. Throws std::invalid_argument naming the bad option.
   SecondaryTask(int n, SecondaryTaskOptions options = {});
+  // Special members defined in the library (which allocates the SVD's workspace), for consumers built with other
+  // flags.
+  SecondaryTask(const SecondaryTask&);
+  SecondaryTask(SecondaryTask&&) noexcept;
+  SecondaryTask& operator=(const SecondaryTask&);
+  SecondaryTask& operator=(SecondaryTask&&) noexcept;
+  ~SecondaryTask();
   int joints() const noexcept { return n_; }
   const SecondaryTaskOptions& options() const noexcept { return options_; }
   bool avoids_joint_limits() const noexcept { return options_.q_min.size() == n_; }
