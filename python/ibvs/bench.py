@@ -100,9 +100,12 @@ def numpy_step(uv: np.ndarray, z: np.ndarray, uv_desired: np.ndarray, kind: str,
     return -gain * np.linalg.solve(A, J.T @ e)
 
 
-def make_frames(n: int, count: int = FRAMES, seed: int = 7) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+def make_frames(n: int, count: int = FRAMES, seed: int = 7,
+                moved: bool = False) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """(uv, depth, uv_desired) frames: desired points on a circle of radius 0.2, current ones
-    rotated, scaled and shifted at random, depths in [0.7, 1.3] m (as ibvs-bench)."""
+    rotated, scaled and shifted at random, depths in [0.7, 1.3] m (as ibvs-bench). moved: the
+    desired points shifted by up to 1e-3 on every frame, so that no goal is reused (the servo
+    caches what it computes from an unchanged goal)."""
     rng = np.random.default_rng(seed)
     a = 2.0 * np.pi * (np.arange(n) + 0.5) / n
     desired = np.ascontiguousarray(0.2 * np.stack([np.cos(a), np.sin(a)], axis=1))
@@ -113,7 +116,8 @@ def make_frames(n: int, count: int = FRAMES, seed: int = 7) -> list[tuple[np.nda
         cur = scale * 0.2 * np.stack([np.cos(a + rot), np.sin(a + rot)], axis=1) + t
         cur = np.ascontiguousarray(cur + 0.005 * rng.uniform(-1, 1, (n, 2)))
         z = np.ascontiguousarray(1.0 + 0.3 * rng.uniform(-1, 1, n))
-        frames.append((cur, z, desired.copy()))
+        goal = desired + 1e-3 * rng.uniform(-1, 1, (n, 2)) if moved else desired.copy()
+        frames.append((cur, z, np.ascontiguousarray(goal)))
     return frames
 
 
@@ -237,6 +241,7 @@ def run(iterations: int = 20000, n: int = 4, damping: float = 0.01, gain: float 
     warmup = max(200, iterations // 10) if warmup is None else warmup
     overhead = _timer_overhead_ns()
     frames = make_frames(n)
+    moved = make_frames(n, moved=True)
     cases: list[dict[str, Any]] = []
 
     def add(name: str, kind: str, rows: int, fn: Callable[[int], Any], **extra: Any) -> dict[str, Any]:
@@ -256,6 +261,8 @@ def run(iterations: int = 20000, n: int = 4, damping: float = 0.01, gain: float 
         fast = add("ibvs Servo.update damped", kind, layout.rows,
                    lambda k, upd=upd: upd(*frames[k]), implementation="ibvs", twist_difference=difference)
         slow["default_over_tuned"] = slow["median_us"] / fast["median_us"] if fast["median_us"] > 0 else math.inf
+        add("ibvs Servo.update, goal moved every frame (default)", kind, layout.rows,
+            lambda k, upd=upd_default: upd(*moved[k]), implementation="ibvs")
         add("ibvs Servo.update damped, .velocity", kind, layout.rows,
             lambda k, upd=upd: upd(*frames[k]).velocity, implementation="ibvs")
         add("ibvs Servo.update damped + diagnostics", kind, layout.rows,

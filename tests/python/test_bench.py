@@ -38,6 +38,19 @@ def test_numpy_step_matches_servo(kind: str, n: int) -> None:
     np.testing.assert_allclose(bench.numpy_step(uv, z, uvd, kind, 0.01, 0.5), v, rtol=1e-10, atol=1e-14)
 
 
+@pytest.mark.parametrize("kind", bench.LAYOUTS)
+def test_goal_moved_frames_move_the_goal_and_the_servo_follows(kind: str) -> None:
+    """The goal-moved row's frames change the goal on every frame, and one servo updated through them all
+    (its goal caches invalidated every frame) gives numpy's twist on each."""
+    frames = bench.make_frames(4, count=40, moved=True)
+    assert all(np.abs(a[2] - b[2]).max() > 0 for a, b in zip(frames, frames[1:]))
+    layout = {"cartesian": ibvs.Layout.cartesian, "polar": ibvs.Layout.polar, "stacked": ibvs.Layout.stacked}[kind](4)
+    servo = ibvs.Servo(layout, gain=0.5, damping=0.01)
+    for uv, z, uvd in frames:
+        np.testing.assert_allclose(servo.update(uv, z, uvd).velocity, bench.numpy_step(uv, z, uvd, kind, 0.01, 0.5),
+                                   rtol=1e-10, atol=1e-14)
+
+
 def test_python_bench_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert bench.main(["--iterations", "200"]) == 0
     out = capsys.readouterr().out
@@ -73,6 +86,7 @@ def test_python_bench_json(capsys: pytest.CaptureFixture[str]) -> None:
     names = {(c["name"], c["layout"]) for c in res["cases"]}
     for kind in bench.LAYOUTS:
         assert ("ibvs Servo.update damped", kind) in names
+        assert ("ibvs Servo.update, goal moved every frame (default)", kind) in names
         assert ("numpy vectorised, damped normal eqs", kind) in names
     for c in res["cases"]:
         assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"]
