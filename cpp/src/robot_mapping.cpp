@@ -67,9 +67,7 @@ JointMappingOutput::JointMappingOutput(int n)
     : qdot(JointVector::Zero(n)), camera_jacobian(RobotJacobian::Zero(6, n)) {}
 
 JointMapping::JointMapping(const JointMapping&) = default;
-JointMapping::JointMapping(JointMapping&&) noexcept = default;
 JointMapping& JointMapping::operator=(const JointMapping&) = default;
-JointMapping& JointMapping::operator=(JointMapping&&) noexcept = default;
 JointMapping::~JointMapping() = default;
 
 JointMapping::JointMapping(int n, const Pose& eMc, JointMappingOptions options)

@@ -53,9 +53,7 @@ SecondaryTaskOutput::SecondaryTaskOutput(int n)
     : qdot(JointVector::Zero(n)), secondary(JointVector::Zero(n)), avoidance(JointVector::Zero(n)) {}
 
 SecondaryTask::SecondaryTask(const SecondaryTask&) = default;
-SecondaryTask::SecondaryTask(SecondaryTask&&) noexcept = default;
 SecondaryTask& SecondaryTask::operator=(const SecondaryTask&) = default;
-SecondaryTask& SecondaryTask::operator=(SecondaryTask&&) noexcept = default;
 SecondaryTask::~SecondaryTask() = default;
 
 SecondaryTask::SecondaryTask(int n, SecondaryTaskOptions options)

@@ -47,18 +47,33 @@ int main() {
   ibvs::sim::EpisodeResult result = episode.run(start, ibvs::Pose::Identity());
   ibvs::sim::EpisodeResult result2 = std::move(result);
   ibvs::sim::Episode episode2 = std::move(episode);
-  // The joint-space mapping and secondary task (their SVD's workspace is library-allocated).
-  ibvs::JointMapping mapping(7, ibvs::Pose::Identity());
-  ibvs::JointMapping mapping2 = mapping;
-  mapping2 = std::move(mapping);
-  ibvs::JointMappingInput jin(7);
-  ibvs::JointMappingOutput jout(7);
-  jin.jacobian.setIdentity();
+  // The joint-space mapping and secondary task (their SVD's workspace is library-allocated): copied, assigned
+  // across joint counts, moved (a move copies: the source stays usable) and run on the SVD route (n = 5 < 6).
+  ibvs::JointMapping mapping(5, ibvs::Pose::Identity());
+  ibvs::JointMapping mapping7(7, ibvs::Pose::Identity());
+  ibvs::JointMapping mapping2 = mapping7;
+  mapping2 = mapping;
+  ibvs::JointMapping mapping3 = std::move(mapping);
+  ibvs::JointMappingInput jin(5);
+  ibvs::JointMappingOutput jout(5), jout2(5);
+  jin.jacobian.setIdentity();  // rows 0-4 of the identity: rank 5 = min(6, n), wz out of reach
   jin.twist << 0.1, 0.0, 0.0, 0.0, 0.0, 0.2;
-  ibvs::SecondaryTask task(7);
-  ibvs::SecondaryTask task2 = task;
-  task = std::move(task2);
-  const bool joints_ok = mapping2.update(jin, jout) == ibvs::Status::ok && std::abs(jout.qdot(0) - 0.1) < 1e-12;
+  ibvs::SecondaryTask task(5);
+  ibvs::SecondaryTask task2 = ibvs::SecondaryTask(7);
+  task2 = task;
+  ibvs::SecondaryTask task3 = std::move(task);
+  bool joints_ok = mapping2.update(jin, jout) == ibvs::Status::ok && std::abs(jout.qdot(0) - 0.1) < 1e-12 &&
+                   mapping.update(jin, jout2) == ibvs::Status::ok && jout2.qdot == jout.qdot &&
+                   mapping3.update(jin, jout2) == ibvs::Status::ok && jout2.qdot == jout.qdot;
+  ibvs::SecondaryTaskInput sin(5);
+  ibvs::SecondaryTaskOutput sout(5), sout2(5);
+  sin.camera_jacobian = jout.camera_jacobian;
+  sin.qdot = jout.qdot;
+  sin.q.setZero(5);
+  sin.qdot_previous.setZero(5);
+  sin.joints.setConstant(5, 0.01);
+  joints_ok = joints_ok && task2.update(sin, sout) == ibvs::Status::ok && task.update(sin, sout2) == ibvs::Status::ok &&
+              sout2.qdot == sout.qdot && task3.update(sin, sout2) == ibvs::Status::ok && sout2.qdot == sout.qdot;
   std::printf("status %d sigma_min %.6g condition %.6g velocity %.6g; episode: %d frames\n", static_cast<int>(status),
               outs[2].sigma_min(), outs[2].condition(), outs[3].velocity.norm(), result2.history.frames);
   const bool servo_ok = status == ibvs::Status::ok && outs[3].velocity == outs[2].velocity;

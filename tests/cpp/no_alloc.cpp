@@ -301,7 +301,7 @@ void partitioned_allocates_nothing() {
 }
 
 // JointMapping::update: SVD of the 6 x n camera Jacobian (n up to max_joints,
-// stack storage), damping, variable damping, null-space task, speed limits,
+// workspace sized by the constructor), damping, variable damping, null-space task, speed limits,
 // both Jacobian frames, and the invalid-input path.
 void joint_mapping_allocates_nothing() {
   for (int n : {1, 3, 6, 7, max_joints}) {

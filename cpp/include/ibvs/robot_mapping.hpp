@@ -66,8 +66,9 @@
 // input's base_pose carries bMe every frame. Everything after eq. (1) (the
 // solve, damping, null space, limits) is unchanged.
 //
-// JointMapping is sized once (n <= max_joints, a compile-time bound that keeps
-// every matrix on the stack); update() is noexcept and never allocates.
+// JointMapping is sized once (n <= max_joints, the compile-time bound of its
+// vectors and Jacobians; the SVD's workspace is allocated by the constructor);
+// update() is noexcept and never allocates.
 #pragma once
 
 #include "ibvs/features.hpp"
@@ -147,12 +148,10 @@ class JointMapping {
   /// bMc base <- camera (options.mounting = eye_to_hand). Throws
   /// std::invalid_argument naming the bad argument.
   JointMapping(int n, const Pose& eMc, JointMappingOptions options = {});
-  // Special members defined in the library (which allocates the SVD's workspace), for consumers built with other
-  // flags.
+  // Copy and destruction defined in the library (which allocates the SVD's workspace), for consumers built with
+  // other flags. No move members: a move copies, so a moved-from JointMapping stays sized and usable.
   JointMapping(const JointMapping&);
-  JointMapping(JointMapping&&) noexcept;
   JointMapping& operator=(const JointMapping&);
-  JointMapping& operator=(JointMapping&&) noexcept;
   ~JointMapping();
 
   int joints() const noexcept { return n_; }

@@ -129,12 +129,10 @@ class SecondaryTask {
  public:
   /// n joints in [1, max_joints]. Throws std::invalid_argument naming the bad option.
   SecondaryTask(int n, SecondaryTaskOptions options = {});
-  // Special members defined in the library (which allocates the SVD's workspace), for consumers built with other
-  // flags.
+  // Copy and destruction defined in the library (which allocates the SVD's workspace), for consumers built with
+  // other flags. No move members: a move copies, so a moved-from SecondaryTask stays sized and usable.
   SecondaryTask(const SecondaryTask&);
-  SecondaryTask(SecondaryTask&&) noexcept;
   SecondaryTask& operator=(const SecondaryTask&);
-  SecondaryTask& operator=(SecondaryTask&&) noexcept;
   ~SecondaryTask();
   int joints() const noexcept { return n_; }
   const SecondaryTaskOptions& options() const noexcept { return options_; }
