@@ -114,7 +114,10 @@ PlanarPose(points, iterations=5): points (N, 3) in the target's frame (metres), 
 N >= 4, not all on one line. estimate(uv) -> (pose, depth, degenerate): the camera <- target pose
 (4x4, metres) and the points' depths in the camera frame (N,), from normalised image points uv;
 a homography (DLT) refined by Gauss-Newton on the reprojection error. degenerate is True (pose and
-depth NaN) when the image does not determine a pose (collinear points, a point behind the camera).)")
+depth NaN) when the image does not determine a pose (collinear points, a point behind the camera).
+estimate_bearings(bearings) -> (pose, range, degenerate): the same from the points' bearings (N, 3),
+e.g. CameraModel.to_bearing of a fisheye's pixels, at any angle off the optical axis (beyond 90
+degrees too); range is each point's distance |P| from the camera centre.)")
       .def(py::init([](py::handle pts, py::handle iterations) {
              const CArray a = as_array(pts, "points");
              if (a.ndim() != 2 || a.shape(1) != 3)
@@ -137,6 +140,26 @@ depth NaN) when the image does not determine a pose (collinear points, a point b
           py::arg("uv"),
           R"(uv (N, 2) or (N, 1, 2), normalised -> (pose, depth, degenerate): camera <- target 4x4 (metres),
 depths (N,) in the camera frame, and True when no pose could be determined (pose and depth NaN).)")
+      .def(
+          "estimate_bearings",
+          [](const PlanarPose& p, py::handle b_obj) {
+            const CArray a = as_array(b_obj, "bearings");
+            if (a.ndim() != 2 || a.shape(1) != 3)
+              throw py::value_error("bearings must have shape (N, 3), got " + shape_of(a));
+            const Eigen::Map<const Eigen::Matrix3Xd> b(a.data(), 3, a.shape(0));
+            p.validate_bearings(b);
+            Pose T = Pose::Constant(not_a_number);
+            Eigen::VectorXd range = Eigen::VectorXd::Constant(p.n_points(), not_a_number);
+            const bool ok = p.estimate_bearings(b, T, range);
+            return py::make_tuple(Eigen::Matrix4d(T), range, !ok);
+          },
+          py::arg("bearings"),
+          R"(bearings (N, 3), directions in the camera frame (any non-zero length; CameraModel.to_bearing of
+the pixels) -> (pose, range, degenerate): camera <- target 4x4 (metres), each point's distance |P|
+from the camera centre (N,), and True when no pose could be determined (four points whose bearings
+lie in one plane, i.e. the camera centre in the target's plane, or repeat; a point not in front
+along its bearing; pose and range NaN).
+Works at any angle off the optical axis, beyond 90 degrees too, where normalised points do not exist.)")
       .def_property_readonly("points", [](const PlanarPose& p) { return Eigen::MatrixX3d(p.points().transpose()); },
                              "(N, 3), target frame, metres.")
       .def_property_readonly("iterations", &PlanarPose::iterations)

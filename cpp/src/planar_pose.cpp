@@ -63,6 +63,8 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T, Eigen::Re
 }
 
 namespace {
+using Matrix9d = Eigen::Matrix<double, 9, 9>;
+
 // Similarity moving the centroid of 2-D points to 0 and their RMS radius to sqrt(2) (Hartley).
 template <class Get>
 Eigen::Matrix3d normaliser(Eigen::Index n, Get get) {
@@ -76,37 +78,25 @@ Eigen::Matrix3d normaliser(Eigen::Index n, Get get) {
   N << s, 0, -s * c(0), 0, s, -s * c(1), 0, 0, 1;
   return N;
 }
-}  // namespace
 
-bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noexcept {
-  const Eigen::Index n = points_.cols();
-  if (uv.cols() != n || !detail::valid_points(uv)) return false;
-  // 1. Homography image ~ H (X, Y, 1) by the normalised DLT.
-  const Eigen::Matrix3d Nm = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(points_.block<2, 1>(0, i)); });
-  const Eigen::Matrix3d Ni = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(uv.col(i)); });
-  Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Vector3d X = Nm * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0);
-    const Eigen::Vector3d x = Ni * Eigen::Vector3d(uv(0, i), uv(1, i), 1.0);
-    Eigen::Matrix<double, 9, 1> a, b;
-    a << X, Eigen::Vector3d::Zero(), -x(0) / x(2) * X;
-    b << Eigen::Vector3d::Zero(), X, -x(1) / x(2) * X;
-    AtA.noalias() += a * a.transpose() + b * b.transpose();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(AtA);
+// The homography Hn (rows of the smallest eigenvector of A^T A, the DLT's least-squares null
+// vector); false unless that null space is one-dimensional: a second (nearly) zero eigenvalue
+// means the image does not determine it (e.g. three of four points on a line).
+bool null_homography(const Matrix9d& AtA, Eigen::Matrix3d& Hn) noexcept {
+  const Eigen::SelfAdjointEigenSolver<Matrix9d> eig(AtA);
   if (eig.info() != Eigen::Success) return false;
-  // A unique homography needs a one-dimensional null space: a second (nearly) zero
-  // eigenvalue means the image does not determine it (e.g. three of four points on a line).
   if (!(eig.eigenvalues()(1) > 1e-10 * eig.eigenvalues()(8))) return false;
   const Eigen::Matrix<double, 9, 1> h = eig.eigenvectors().col(0);
-  Eigen::Matrix3d Hn;
   Hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
-  const Eigen::Matrix3d H = Ni.inverse() * Hn * Nm;
-  // 2. H ~ [r1 r2 t]: scale from the rotation columns, sign from t_z > 0.
+  return true;
+}
+
+// H ~ [r1 r2 t]: lambda = sign 2 / (|h1| + |h2|) scales the rotation columns to unit length; the
+// rotation r1, r2, r1 x r2 is re-orthonormalised (the nearest rotation, by the SVD), t = lambda h3.
+bool decompose(const Eigen::Matrix3d& H, double sign, Pose& E) noexcept {
   const double n1 = H.col(0).norm(), n2 = H.col(1).norm();
   if (!(n1 > 0.0) || !(n2 > 0.0)) return false;
-  double lambda = 2.0 / (n1 + n2);
-  if (H(2, 2) < 0.0) lambda = -lambda;
+  const double lambda = sign * 2.0 / (n1 + n2);
   Eigen::Matrix3d M;
   M.col(0) = lambda * H.col(0);
   M.col(1) = lambda * H.col(1);
@@ -114,21 +104,24 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
   D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-  Pose E = Pose::Identity();
+  E.setIdentity();
   E.topLeftCorner<3, 3>() = svd.matrixU() * D * svd.matrixV().transpose();
   E.topRightCorner<3, 1>() = lambda * H.col(2);
-  // 3. Gauss-Newton on the reprojection error. With T <- exp(-d) T the
-  // projected points move by L d (eq. 3 Jacobian of each point), so the
-  // step is d = -(L^T L)^-1 L^T r.
-  for (int it = 0; it < iterations_; ++it) {
+  return E.allFinite();
+}
+
+// Gauss-Newton on 2-row residuals r_i with r_i(exp(-d) T) ~ r_i + L_i d (L_i the residual's
+// Jacobian for the camera twist d), so the step is d = -(L^T L)^-1 L^T r and T <- exp(-d) T.
+// residual(i, E, L, r) fills point i's L and r, false to refuse the pose E.
+template <class Residual>
+bool refine(Eigen::Index n, int iterations, Pose& E, Residual residual) noexcept {
+  for (int it = 0; it < iterations; ++it) {
     Eigen::Matrix<double, 6, 6> LtL = Eigen::Matrix<double, 6, 6>::Zero();
     Twist Ltr = Twist::Zero();
     for (Eigen::Index i = 0; i < n; ++i) {
-      const Eigen::Vector3d p = E.topLeftCorner<3, 3>() * points_.col(i) + E.topRightCorner<3, 1>();
-      if (!(p(2) > 0.0)) return false;
-      const double u = p(0) / p(2), v = p(1) / p(2);
-      const Matrix26 L = cartesian_jacobian(u, v, p(2));
-      const Eigen::Vector2d r(u - uv(0, i), v - uv(1, i));
+      Matrix26 L;
+      Eigen::Vector2d r;
+      if (!residual(i, E, L, r)) return false;
       LtL.noalias() += L.transpose() * L;
       Ltr.noalias() += L.transpose() * r;
     }
@@ -137,7 +130,170 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
     E = se3_exp(d) * E;  // exp(-(-d)): the step is -d, and T <- exp(-step) T
     if (d.norm() < 1e-14) break;
   }
-  if (!E.allFinite()) return false;
+  return E.allFinite();
+}
+
+// The unit vector of a finite, non-zero column (scaled by its largest entry first: its norm cannot
+// overflow or underflow); false otherwise.
+bool unit(const Eigen::Ref<const Eigen::Matrix3Xd>& b, Eigen::Index i, Eigen::Vector3d& u) noexcept {
+  const Eigen::Vector3d c = b.col(i);
+  if (!c.allFinite()) return false;
+  const double m = c.cwiseAbs().maxCoeff();
+  if (!(m > 0.0)) return false;
+  u = (c / m).normalized();
+  return true;
+}
+
+// An orthonormal basis (e1, e2) of the plane orthogonal to the unit vector b, with e1 x e2 = b.
+void tangent_basis(const Eigen::Vector3d& b, Eigen::Vector3d& e1, Eigen::Vector3d& e2) noexcept {
+  Eigen::Index k = 0;
+  b.cwiseAbs().minCoeff(&k);
+  e1 = b.cross(Eigen::Vector3d::Unit(k)).normalized();
+  e2 = b.cross(e1);
+}
+}  // namespace
+
+bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noexcept {
+  const Eigen::Index n = points_.cols();
+  if (uv.cols() != n || !detail::valid_points(uv)) return false;
+  // 1. Homography image ~ H (X, Y, 1) by the normalised DLT.
+  const Eigen::Matrix3d Nm = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(points_.block<2, 1>(0, i)); });
+  const Eigen::Matrix3d Ni = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(uv.col(i)); });
+  Matrix9d AtA = Matrix9d::Zero();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Vector3d X = Nm * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0);
+    const Eigen::Vector3d x = Ni * Eigen::Vector3d(uv(0, i), uv(1, i), 1.0);
+    Eigen::Matrix<double, 9, 1> a, b;
+    a << X, Eigen::Vector3d::Zero(), -x(0) / x(2) * X;
+    b << Eigen::Vector3d::Zero(), X, -x(1) / x(2) * X;
+    AtA.noalias() += a * a.transpose() + b * b.transpose();
+  }
+  Eigen::Matrix3d Hn;
+  if (!null_homography(AtA, Hn)) return false;
+  const Eigen::Matrix3d H = Ni.inverse() * Hn * Nm;
+  // 2. H ~ [r1 r2 t], its sign from t_z > 0.
+  Pose E;
+  if (!decompose(H, H(2, 2) < 0.0 ? -1.0 : 1.0, E)) return false;
+  // 3. Gauss-Newton on the reprojection error in normalised coordinates (eq. 3 Jacobian of each point).
+  const bool ok = refine(n, iterations_, E, [&](Eigen::Index i, const Pose& P, Matrix26& L, Eigen::Vector2d& r) {
+    const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * points_.col(i) + P.topRightCorner<3, 1>();
+    if (!(p(2) > 0.0)) return false;
+    const double u = p(0) / p(2), v = p(1) / p(2);
+    L = cartesian_jacobian(u, v, p(2));
+    r << u - uv(0, i), v - uv(1, i);
+    return true;
+  });
+  if (!ok) return false;
+  T = E;
+  return true;
+}
+
+void PlanarPose::validate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bearings) const {
+  if (bearings.cols() != points_.cols())
+    throw std::invalid_argument("ibvs: bearings must hold " + std::to_string(points_.cols()) +
+                                " bearings (the target's points), got " + std::to_string(bearings.cols()));
+  Eigen::Vector3d u;
+  for (Eigen::Index i = 0; i < bearings.cols(); ++i) {
+    if (unit(bearings, i, u)) continue;
+    const std::string which = "ibvs: bearings[" + std::to_string(i) + "]";
+    if (!bearings.col(i).allFinite()) throw std::invalid_argument(which + " is not finite");
+    throw std::invalid_argument(which + " has zero length (a bearing is a direction)");
+  }
+}
+
+bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bearings, Pose& T,
+                                   Eigen::Ref<Eigen::VectorXd> range) const noexcept {
+  Pose E;
+  if (range.size() != points_.cols() || !estimate_bearings(bearings, E)) return false;
+  for (Eigen::Index i = 0; i < points_.cols(); ++i)
+    range(i) = (E.topLeftCorner<3, 3>() * points_.col(i) + E.topRightCorner<3, 1>()).norm();
+  T = E;
+  return true;
+}
+
+bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bearings, Pose& T) const noexcept {
+  const Eigen::Index n = points_.cols();
+  if (bearings.cols() != n) return false;
+  // 1. Normalising the bearings, the idea of Hartley's for image points: rotate their mean direction
+  // m onto z (Q, rows e1, e2, m) and scale the spread about it, c = diag(s, s, 1) Q b with
+  // s^2 = 2 sum (Q b)_z^2 / sum |(Q b)_xy|^2 (for a narrow view, the image points' RMS radius
+  // sqrt(2) about their centroid). Points of a plane not through the camera centre lie in an
+  // open hemisphere, so their mean direction is not zero.
+  Eigen::Vector3d b, mean = Eigen::Vector3d::Zero();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!unit(bearings, i, b)) return false;
+    mean += b;
+  }
+  if (!(mean.norm() > 1e-12 * static_cast<double>(n))) return false;
+  Eigen::Matrix3d Q;
+  Q.row(2) = mean.normalized().transpose();
+  Eigen::Vector3d e1, e2;
+  tangent_basis(Q.row(2).transpose(), e1, e2);
+  Q.row(0) = e1.transpose();
+  Q.row(1) = e2.transpose();
+  double axial = 0.0, spread = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    unit(bearings, i, b);
+    const Eigen::Vector3d c = Q * b;
+    axial += c(2) * c(2);
+    spread += c(0) * c(0) + c(1) * c(1);
+  }
+  double s = std::sqrt(2.0 * axial / spread);
+  if (!std::isfinite(s) || !(s > 0.0)) s = 1.0;  // all bearings alike: the DLT refuses them below
+  // 2. Homography b ~ H (X, Y, 1) by the DLT on the normalised bearings c (unit length, so each
+  // point weighs the same): the three rows of c x (Hn X) = 0 (rank 2), for any direction of c.
+  const Eigen::Matrix3d Nm = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(points_.block<2, 1>(0, i)); });
+  Matrix9d AtA = Matrix9d::Zero();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    unit(bearings, i, b);
+    const Eigen::Vector3d X = Nm * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0);
+    Eigen::Vector3d c = Q * b;
+    c.head<2>() *= s;
+    c.normalize();
+    // The rows [c]_x (I3 kron X^T) of the point give A^T A = ([c]_x^T [c]_x) kron (X X^T), with
+    // [c]_x^T [c]_x = I - c c^T for a unit c.
+    const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() - c * c.transpose(), XX = X * X.transpose();
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) AtA.block<3, 3>(3 * j, 3 * k) += C(j, k) * XX;
+  }
+  Eigen::Matrix3d Hn;
+  if (!null_homography(AtA, Hn)) return false;
+  const Eigen::Matrix3d H = Q.transpose() * Eigen::Vector3d(1.0 / s, 1.0 / s, 1.0).asDiagonal() * Hn * Nm;
+  // 3. H ~ [r1 r2 t], its sign putting the points in front along their bearings: b . (H X) > 0 (the
+  // sum here; every point is checked below). Not t_z > 0: beyond 90 degrees off the axis z < 0.
+  double front = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    unit(bearings, i, b);
+    front += b.dot(H * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0));
+  }
+  Pose E;
+  if (!decompose(H, front < 0.0 ? -1.0 : 1.0, E)) return false;
+  // 4. Gauss-Newton on each bearing's tangent-plane residual r = B^T P/|P| (B = (e1, e2) orthogonal to
+  // the measured b: r = 0 when P lies along b, |r| the sine of the angle between them), its Jacobian
+  // B^T [-(I - s s^T)/|P|, [s]_x] with s = P/|P| (Hamel & Mahony eq. 9).
+  const auto residual = [&](Eigen::Index i, const Pose& P, Matrix26& L, Eigen::Vector2d& r) {
+    Eigen::Vector3d u, t1, t2;
+    unit(bearings, i, u);
+    const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * points_.col(i) + P.topRightCorner<3, 1>();
+    if (!(u.dot(p) > 0.0)) return false;  // not in front along its bearing
+    const double R = p.norm();
+    const Eigen::Vector3d q = p / R;
+    tangent_basis(u, t1, t2);
+    r << t1.dot(q), t2.dot(q);
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Vector3d& e = k == 0 ? t1 : t2;
+      L.block<1, 3>(k, 0) = -(e - e.dot(q) * q).transpose() / R;  // e^T (I - q q^T) / R
+      L.block<1, 3>(k, 3) = e.cross(q).transpose();                // e^T [q]_x w = e . (q x w) = (e x q) . w
+    }
+    return true;
+  };
+  Matrix26 L;
+  Eigen::Vector2d r;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!residual(i, E, L, r)) return false;  // the linear start already puts a point behind its bearing
+  if (!refine(n, iterations_, E, residual)) return false;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!residual(i, E, L, r)) return false;
   T = E;
   return true;
 }

@@ -298,6 +298,8 @@ class PlanarPose:
     def __init__(self, points: _ArrayLike, iterations: int = 5) -> None: ...
     def estimate(self, uv: _ArrayLike) -> Tuple[_FloatArray, _FloatArray, bool]:
         """Normalised uv -> (pose 4x4 camera <- target, depth (N,), degenerate)."""
+    def estimate_bearings(self, bearings: _ArrayLike) -> Tuple[_FloatArray, _FloatArray, bool]:
+        """Bearings (N, 3), any angle off the axis -> (pose 4x4 camera <- target, range |P| (N,), degenerate)."""
     @property
     def points(self) -> _FloatArray:
         """(N, 3), target frame, metres."""
