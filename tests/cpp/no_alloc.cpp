@@ -434,6 +434,19 @@ void estimators_allocate_nothing() {
   ibvs_test::report(during == 0, "no allocation in DepthEstimator::update / PlanarPose::estimate", __FILE__, __LINE__,
                     std::to_string(during));
   CHECK(ok && restarts == 4 && est.depth().allFinite() && z.allFinite());
+  // PlanarPose::estimate_bearings: the target 110 degrees off the axis (z < 0), a reversed bearing.
+  Pose Tb = se3_exp((Twist() << 0, 0, 0, 0, 1.92, 0).finished());
+  Tb.topRightCorner<3, 1>() << 0.94, 0.0, -0.34;
+  Eigen::Matrix3Xd bearings = Tb.topLeftCorner<3, 3>() * pp.points();
+  bearings.colwise() += Tb.topRightCorner<3, 1>();
+  Eigen::Matrix3Xd away = bearings;
+  away.col(1) *= -1.0;
+  const long before_b = news.load();
+  const bool ok_b = pp.estimate_bearings(bearings, T, z) && !pp.estimate_bearings(away, T, z) && pp.estimate_bearings(bearings, T);
+  const long during_b = news.load() - before_b;
+  ibvs_test::report(during_b == 0, "no allocation in PlanarPose::estimate_bearings", __FILE__, __LINE__,
+                    std::to_string(during_b));
+  CHECK(ok_b && (T - Tb).cwiseAbs().maxCoeff() < 1e-9 && z.allFinite());
 }
 
 // A Task of PBVS (both targets), 2.5-D and a user's FunctionFeature blocks beside a point:

@@ -1,7 +1,8 @@
 // Fuzz target over Layout, Task (feature blocks, weights, DOF), Servo (options,
 // validate, update), PartitionedServo, damped_pinv / singular_values and se3_exp,
 // the simulator's feature sources (LineSource on a target, measure from any pose;
-// short episodes of a line task), the wide-angle camera path (fisheye / omnidir bearings):
+// short episodes of a line task), the wide-angle camera path (fisheye / omnidir bearings,
+// PlanarPose::estimate_bearings):
 // arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
@@ -375,6 +376,7 @@ void fuzz_smooth(Bytes& b) {
 // bearings; validate_* throws exactly for what they refuse). The spherical feature blocks are
 // kinds of the task fuzzer below (fuzz_kinds).
 void fuzz_wide_wrap(Bytes& b);
+void fuzz_planar_bearings(Bytes& b);
 void spherical_measurement(Bytes& b, double* m);
 
 void fuzz_wide(Bytes& b) {
@@ -418,6 +420,54 @@ void fuzz_wide(Bytes& b) {
     CHECK(threw == !okb);
   }
   fuzz_wide_wrap(b);
+  fuzz_planar_bearings(b);
+}
+
+// PlanarPose::estimate_bearings on fuzzed bearings of 4 to 6 target points: those of a pose at any
+// angle off the axis (some perturbed, reversed or replaced) or any doubles. Accepted: a finite rigid
+// pose and finite positive ranges; refused: T and the ranges untouched; validate_bearings throws
+// only for a refused input (a degenerate one is refused without throwing).
+void fuzz_planar_bearings(Bytes& b) {
+  const int n = b.small(4, 6);
+  Eigen::Matrix3Xd P = Eigen::Matrix3Xd::Zero(3, n);
+  P.leftCols(4) << -0.2, 0.2, 0.2, -0.2, -0.2, -0.2, 0.2, 0.2, 0.0, 0.0, 0.0, 0.0;
+  for (int i = 4; i < n; ++i) P.block<2, 1>(0, i) << b.coordinate(), b.coordinate();
+  std::optional<PlanarPose> est;
+  try {
+    est.emplace(P, b.small(0, 8));
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  Twist xi;
+  for (int k = 0; k < 6; ++k) xi(k) = b.byte() < 220 ? (b.byte() - 127.5) / 40.0 : b.real();
+  xi(2) += 1.0;
+  const Pose T0 = xi.allFinite() && xi.cwiseAbs().maxCoeff() < 1e3 ? se3_exp(xi) : Pose(Pose::Identity());
+  Eigen::Matrix3Xd bear = T0.topLeftCorner<3, 3>() * P;
+  bear.colwise() += T0.topRightCorner<3, 1>();
+  for (int i = 0; i < n; ++i) {
+    const std::uint8_t how = b.byte();
+    if (how < 40) bear.col(i) << b.real(), b.real(), b.real();
+    else if (how < 60) bear.col(i) *= -1.0;
+    else if (how < 100) bear.col(i) += 1e-3 * Eigen::Vector3d(b.coordinate(), b.coordinate(), b.coordinate());
+  }
+  const Pose keep = Pose::Constant(3.0);
+  Pose T = keep;
+  Eigen::VectorXd range = Eigen::VectorXd::Constant(n, 3.0);
+  const bool ok = est->estimate_bearings(bear, T, range);
+  bool threw = false;
+  try {
+    est->validate_bearings(bear);
+  } catch (const std::invalid_argument&) {
+    threw = true;
+  }
+  CHECK(!(threw && ok));
+  if (ok) {
+    const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
+    CHECK(T.allFinite() && range.allFinite() && (range.array() > 0.0).all());
+    CHECK((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-9 && R.determinant() > 0.0);
+  } else {
+    CHECK(T == keep && range == Eigen::VectorXd::Constant(n, 3.0));
+  }
 }
 
 // The consistent wrap of spherical-polar azimuths (Feature::axis_angle_rows): polar points and
