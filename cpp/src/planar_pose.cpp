@@ -65,14 +65,16 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T, Eigen::Re
 namespace {
 using Matrix9d = Eigen::Matrix<double, 9, 9>;
 
-// Similarity moving the centroid of 2-D points to 0 and their RMS radius to sqrt(2) (Hartley).
-template <class Get>
-Eigen::Matrix3d normaliser(Eigen::Index n, Get get) {
+// Similarity moving the centroid of 2-D points (2 x N, a view without copy) to 0 and their RMS
+// radius to sqrt(2) (Hartley).
+using Points2 = Eigen::Ref<const Eigen::Matrix<double, 2, Eigen::Dynamic>, 0, Eigen::OuterStride<>>;
+Eigen::Matrix3d normaliser(const Points2& p) noexcept {
+  const Eigen::Index n = p.cols();
   Eigen::Vector2d c = Eigen::Vector2d::Zero();
-  for (Eigen::Index i = 0; i < n; ++i) c += get(i);
+  for (Eigen::Index i = 0; i < n; ++i) c += p.col(i);
   c /= static_cast<double>(n);
   double r2 = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) r2 += (get(i) - c).squaredNorm();
+  for (Eigen::Index i = 0; i < n; ++i) r2 += (p.col(i) - c).squaredNorm();
   const double s = r2 > 0.0 ? std::sqrt(2.0 * static_cast<double>(n) / r2) : 1.0;
   Eigen::Matrix3d N;
   N << s, 0, -s * c(0), 0, s, -s * c(1), 0, 0, 1;
@@ -112,16 +114,17 @@ bool decompose(const Eigen::Matrix3d& H, double sign, Pose& E) noexcept {
 
 // Gauss-Newton on 2-row residuals r_i with r_i(exp(-d) T) ~ r_i + L_i d (L_i the residual's
 // Jacobian for the camera twist d), so the step is d = -(L^T L)^-1 L^T r and T <- exp(-d) T.
-// residual(i, E, L, r) fills point i's L and r, false to refuse the pose E.
-template <class Residual>
-bool refine(Eigen::Index n, int iterations, Pose& E, Residual residual) noexcept {
+// residual(data, i, E, L, r) fills point i's L and r, false to refuse the pose E. (A function
+// pointer, not a template: one copy of the loop for both estimates, for the compile time.)
+using Residual = bool (*)(const void* data, Eigen::Index i, const Pose& E, Matrix26& L, Eigen::Vector2d& r);
+bool refine(Eigen::Index n, int iterations, Pose& E, Residual residual, const void* data) noexcept {
   for (int it = 0; it < iterations; ++it) {
     Eigen::Matrix<double, 6, 6> LtL = Eigen::Matrix<double, 6, 6>::Zero();
     Twist Ltr = Twist::Zero();
     for (Eigen::Index i = 0; i < n; ++i) {
       Matrix26 L;
       Eigen::Vector2d r;
-      if (!residual(i, E, L, r)) return false;
+      if (!residual(data, i, E, L, r)) return false;
       LtL.noalias() += L.transpose() * L;
       Ltr.noalias() += L.transpose() * r;
     }
@@ -132,6 +135,16 @@ bool refine(Eigen::Index n, int iterations, Pose& E, Residual residual) noexcept
   }
   return E.allFinite();
 }
+
+// What the residuals read: the target's points and the image points or bearings.
+struct ImagePoints {
+  const Eigen::Matrix3Xd& points;
+  const Eigen::Ref<const Points>& uv;
+};
+struct BearingPoints {
+  const Eigen::Matrix3Xd& points;
+  const Eigen::Ref<const Eigen::Matrix3Xd>& bearings;
+};
 
 // The unit vector of a finite, non-zero column (scaled by its largest entry first: its norm cannot
 // overflow or underflow); false otherwise.
@@ -157,8 +170,7 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
   const Eigen::Index n = points_.cols();
   if (uv.cols() != n || !detail::valid_points(uv)) return false;
   // 1. Homography image ~ H (X, Y, 1) by the normalised DLT.
-  const Eigen::Matrix3d Nm = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(points_.block<2, 1>(0, i)); });
-  const Eigen::Matrix3d Ni = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(uv.col(i)); });
+  const Eigen::Matrix3d Nm = normaliser(points_.topRows<2>()), Ni = normaliser(uv);
   Matrix9d AtA = Matrix9d::Zero();
   for (Eigen::Index i = 0; i < n; ++i) {
     const Eigen::Vector3d X = Nm * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0);
@@ -175,14 +187,16 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
   Pose E;
   if (!decompose(H, H(2, 2) < 0.0 ? -1.0 : 1.0, E)) return false;
   // 3. Gauss-Newton on the reprojection error in normalised coordinates (eq. 3 Jacobian of each point).
-  const bool ok = refine(n, iterations_, E, [&](Eigen::Index i, const Pose& P, Matrix26& L, Eigen::Vector2d& r) {
-    const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * points_.col(i) + P.topRightCorner<3, 1>();
+  const ImagePoints data{points_, uv};
+  const bool ok = refine(n, iterations_, E, [](const void* d, Eigen::Index i, const Pose& P, Matrix26& L, Eigen::Vector2d& r) {
+    const auto& [X, x] = *static_cast<const ImagePoints*>(d);
+    const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * X.col(i) + P.topRightCorner<3, 1>();
     if (!(p(2) > 0.0)) return false;
     const double u = p(0) / p(2), v = p(1) / p(2);
     L = cartesian_jacobian(u, v, p(2));
-    r << u - uv(0, i), v - uv(1, i);
+    r << u - x(0, i), v - x(1, i);
     return true;
-  });
+  }, &data);
   if (!ok) return false;
   T = E;
   return true;
@@ -242,7 +256,7 @@ bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
   if (!std::isfinite(s) || !(s > 0.0)) s = 1.0;  // all bearings alike: the DLT refuses them below
   // 2. Homography b ~ H (X, Y, 1) by the DLT on the normalised bearings c (unit length, so each
   // point weighs the same): the three rows of c x (Hn X) = 0 (rank 2), for any direction of c.
-  const Eigen::Matrix3d Nm = normaliser(n, [&](Eigen::Index i) { return Eigen::Vector2d(points_.block<2, 1>(0, i)); });
+  const Eigen::Matrix3d Nm = normaliser(points_.topRows<2>());
   Matrix9d AtA = Matrix9d::Zero();
   for (Eigen::Index i = 0; i < n; ++i) {
     unit(bearings, i, b);
@@ -271,10 +285,20 @@ bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
   // 4. Gauss-Newton on each bearing's tangent-plane residual r = B^T P/|P| (B = (e1, e2) orthogonal to
   // the measured b: r = 0 when P lies along b, |r| the sine of the angle between them), its Jacobian
   // B^T [-(I - s s^T)/|P|, [s]_x] with s = P/|P| (Hamel & Mahony eq. 9).
-  const auto residual = [&](Eigen::Index i, const Pose& P, Matrix26& L, Eigen::Vector2d& r) {
+  const auto in_front = [&](const Pose& P) {  // b . (R X + t) > 0 for every point
+    for (Eigen::Index i = 0; i < n; ++i) {
+      unit(bearings, i, b);
+      if (!(b.dot(P.topLeftCorner<3, 3>() * points_.col(i) + P.topRightCorner<3, 1>()) > 0.0)) return false;
+    }
+    return true;
+  };
+  if (!in_front(E)) return false;  // the linear start already puts a point behind its bearing
+  const BearingPoints data{points_, bearings};
+  const bool ok = refine(n, iterations_, E, [](const void* d, Eigen::Index i, const Pose& P, Matrix26& L, Eigen::Vector2d& r) {
+    const auto& [X, bs] = *static_cast<const BearingPoints*>(d);
     Eigen::Vector3d u, t1, t2;
-    unit(bearings, i, u);
-    const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * points_.col(i) + P.topRightCorner<3, 1>();
+    unit(bs, i, u);
+    const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * X.col(i) + P.topRightCorner<3, 1>();
     if (!(u.dot(p) > 0.0)) return false;  // not in front along its bearing
     const double R = p.norm();
     const Eigen::Vector3d q = p / R;
@@ -286,14 +310,8 @@ bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
       L.block<1, 3>(k, 3) = e.cross(q).transpose();                // e^T [q]_x w = e . (q x w) = (e x q) . w
     }
     return true;
-  };
-  Matrix26 L;
-  Eigen::Vector2d r;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!residual(i, E, L, r)) return false;  // the linear start already puts a point behind its bearing
-  if (!refine(n, iterations_, E, residual)) return false;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!residual(i, E, L, r)) return false;
+  }, &data);
+  if (!ok || !in_front(E)) return false;
   T = E;
   return true;
 }
