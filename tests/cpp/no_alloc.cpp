@@ -218,26 +218,32 @@ void spherical_episode_allocates_nothing() {
   K << 300, 0, 640, 0, 300, 512, 0, 0, 1;
   const CameraModel fish = CameraModel::from_opencv(K, Eigen::Vector4d(-0.013, 0.02, -0.012, 0.002), 1280, 1024, true);
   Eigen::Matrix3Xd P(3, 4);
-  P << -0.25, 0.25, 0.25, -0.25, -0.25, -0.25, 0.25, 0.25, 1.0, 1.0, 1.0, 1.0;
-  Target t(P);
+  P << -0.25, 0.25, 0.25, -0.25, -0.25, -0.25, 0.25, 0.25, 0.0, 0.0, 0.0, 0.0;
+  Pose ahead = Pose::Identity();
+  ahead(2, 3) = 1.0;
+  Target t(P, ahead);
   Task task;
   for (int i = 0; i < 4; ++i) {
     task.add(SphericalPolarFeature());
     t.add(sim::SphericalSource(i));
   }
-  EpisodeOptions o;
-  o.duration = 3.0;
-  o.noise = 0.1;
-  o.latency = 1;
-  Twist v;
-  v << 0.05, -0.04, -0.2, 0.0, 1.87, 0.3;
-  Episode e(Servo(task, ServoOptions{}), fish, t, o);
-  const long before = news.load();
-  const EpisodeResult& r = e.run(se3_exp(v), Pose::Identity());
-  const long during = news.load() - before;
-  ibvs_test::report(during == 0, "no allocation in Episode::run of a spherical task on a fisheye", __FILE__, __LINE__,
-                    std::to_string(during));
-  CHECK(r.history.frames > 100);
+  // exact depths, and the pose depth mode (PlanarPose::estimate_bearings each frame)
+  for (const DepthMode mode : {DepthMode::exact, DepthMode::pose}) {
+    EpisodeOptions o;
+    o.duration = 3.0;
+    o.noise = 0.1;
+    o.latency = 1;
+    o.depth = mode;
+    Twist v;
+    v << 0.05, -0.04, -0.2, 0.0, 1.87, 0.3;
+    Episode e(Servo(task, ServoOptions{}), fish, t, o);
+    const long before = news.load();
+    const EpisodeResult& r = e.run(se3_exp(v), Pose::Identity());
+    const long during = news.load() - before;
+    ibvs_test::report(during == 0, "no allocation in Episode::run of a spherical task on a fisheye", __FILE__, __LINE__,
+                      std::to_string(during));
+    CHECK(r.history.frames > 100);
+  }
 }
 
 // An episode with a C++ sensor in place of the default (the measurement hook costs no allocation).

@@ -169,9 +169,50 @@ void spherical_episodes_converge_from_beyond_90_degrees() {
   CHECK_THROWS(SphericalSource(-1));
 }
 
+// depth = pose from the same 100-degree start: the depth stage estimates the target's pose from the
+// bearings (PlanarPose::estimate_bearings; the normalised points do not exist beyond 90 degrees), so
+// the spherical blocks' distances are the true ones and the episodes converge as with exact depths.
+void pose_depth_from_bearings_beyond_90_degrees() {
+  const Pose start = start_100();
+  Eigen::Matrix3Xd P(3, 4);  // the square above, planar in its own frame, 1 m ahead of the goal
+  P << -0.25, 0.25, 0.25, -0.25, -0.25, -0.25, 0.25, 0.25, 0.0, 0.0, 0.0, 0.0;
+  Pose ahead = Pose::Identity();
+  ahead(2, 3) = 1.0;
+  Target tgt(P, ahead);
+  for (int i = 0; i < 4; ++i) tgt.add(SphericalSource(i));
+  EpisodeOptions o;
+  o.duration = 40;
+  o.tolerance = 1e-9;
+  o.depth = DepthMode::pose;
+  const CameraModel omni =
+      CameraModel::from_omnidir(K_of(350, 640, 512), 1.6, Eigen::Vector4d(-0.05, 0.01, 2e-4, -1e-4), 1280, 1024);
+  for (const CameraModel& cam : {docs_fisheye(), omni}) {
+    for (int kind = 0; kind < 2; ++kind) {
+      const EpisodeResult r = kind == 0 ? run_episode(spherical_servo<SphericalPolarFeature>(), cam, tgt, start,
+                                                      Pose::Identity(), o)
+                                        : run_episode(spherical_servo<SphericalPointFeature>(), cam, tgt, start,
+                                                      Pose::Identity(), o);
+      CHECK(r.status.outcome == Outcome::converged);
+      CHECK(r.metrics.final_translation_error < 1e-8 && r.metrics.final_rotation_error < 1e-8);
+      // frame 0: the depths given are the points' true z (negative beyond 90 degrees) and each
+      // block's distance R the true |P|, from the pose the bearings gave
+      const Pose T0 = se3_inverse(start) * ahead;
+      int behind = 0;
+      for (int i = 0; i < 4; ++i) {
+        const Eigen::Vector3d p = T0.topLeftCorner<3, 3>() * P.col(i) + T0.topRightCorner<3, 1>();
+        behind += p.z() < 0;
+        CHECK(std::abs(r.history.depth(0, i) - p.z()) < 1e-9);
+        CHECK(std::abs(r.history.measurements(0, 4 * i + 3) - p.norm()) < 1e-9);
+      }
+      CHECK(behind >= 2);
+    }
+  }
+}
+
 }  // namespace
 
 void run_tests() {
   left_image_uses_the_image_circle();
   spherical_episodes_converge_from_beyond_90_degrees();
+  pose_depth_from_bearings_beyond_90_degrees();
 }

@@ -111,3 +111,23 @@ def test_exact_from_any_pose_in_front(angle, distance, tilt):
     P = camera_points(T)
     pose, rng, degenerate = ibvs.PlanarPose(SQUARE).estimate_bearings(P)
     assert not degenerate and np.abs(pose - T).max() < 1e-8
+
+
+def test_simulator_pose_depth_from_bearings_beyond_90_degrees():
+    """sim.run with depth="pose" and spherical blocks through the fisheye, the target's centre 100 degrees off
+    the axis: the depth stage's PlanarPose works from the bearings, so the blocks' distances are the true ones
+    from frame 0 and the episode converges as with exact depths."""
+    target = sim.Target.square(0.5, sim.pose(t=(0, 0, 1.0))).with_features([sim.SphericalSource(i) for i in range(4)])
+    task = ibvs.Task()
+    for _ in range(4):
+        task.add(ibvs.SphericalPolarFeature())
+    start = ibvs.se3_exp([0.05, -0.04, -0.2, 0.0, math.radians(107), 0.3])
+    P = camera_points(np.linalg.inv(start) @ np.asarray(target.pose))
+    assert (P[:, 2] < 0).sum() >= 2
+    r = sim.run(ibvs.Servo(task, gain=1.0), FISH, target, start, np.eye(4), duration=40, depth="pose", tolerance=1e-9)
+    assert r.status.outcome == "converged" and r.metrics.final_translation_error < 1e-8
+    m0 = np.asarray(r.history.measurements[0]).reshape(4, 4)
+    assert np.abs(m0[:, 3] - np.linalg.norm(P, axis=1)).max() < 1e-9
+    assert np.abs(r.history.depth[0] - P[:, 2]).max() < 1e-9
+    exact = sim.run(ibvs.Servo(task, gain=1.0), FISH, target, start, np.eye(4), duration=40, tolerance=1e-9)
+    assert abs(r.status.frame - exact.status.frame) <= 1

@@ -149,7 +149,9 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
   const long frames = std::lround(options_.duration * camera_.fps());
   stages_.reset(new Stages{stages::Measure(camera_, target_.world_points(), options_.latency, options_.min_depth,
                                            task.n_points() == 0),
-                           stages::Depths(options_, camera_, target_.points),  // pose: throws unless planar
+                           // pose: throws unless planar; from the bearings when the measure stage gives no
+                           // normalised points beyond 90 degrees (feature blocks only, a wide lens)
+                           stages::Depths(options_, camera_, target_.points, task.n_points() == 0 && wide_lens(camera_)),
                            stages::Sources(target_, std::holds_alternative<Servo>(servo_) ? &task : nullptr, options_),
                            stages::Control(task, camera_, options_, n), stages::Actuate(1.0 / camera_.fps()),
                            stages::Judge(target_, options_, static_cast<int>(std::min(frames, 10'000'000L)),
@@ -184,7 +186,7 @@ void Episode::prepare(const Pose& goal) {
   s.measure.teach(goal, *sensor_, result_.uv_desired, result_.depth_desired);
   result_.measured_desired = s.measure.goal_measured();
   s.depths.aim(result_.depth_desired);
-  s.depths.teach(result_.uv_desired);
+  s.depths.teach(result_.uv_desired, &s.measure.goal_bearings());
   s.sources.teach(goal, result_.uv_desired, s.depths.goal_depth(), s.depths.goal_pose_estimate(),
                   &s.measure.goal_bearings());
   result_.measurements_desired = s.sources.desired();
@@ -266,7 +268,7 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
     const int seen = measure.seen(k);
 
     // Estimate depths, then control.
-    depths.estimate(k, measure.uv(), measure.true_depths(seen));
+    depths.estimate(k, measure.uv(), measure.true_depths(seen), &measure.bearings());
     stages::record_view(h, k, measure.uv(), depths.depth());
 
     // Measure the feature blocks (a task's lines, ellipses...) on the frame the controller sees.

@@ -94,7 +94,9 @@
 // twist; robot: the forward kinematics at the two joint vectors). Its prior is
 // depth_scale z*, point_noise the pixel noise over min(px, py), the depths kept
 // within [min_depth, 100 depth_scale z*]. Depth mode "pose": ibvs::PlanarPose
-// on the controller's points (the last estimate is kept when one is degenerate).
+// on the controller's points (the last estimate is kept when one is degenerate);
+// for a task of feature blocks only through a wide lens, on their bearings
+// (PlanarPose::estimate_bearings: beyond 90 degrees off the axis too).
 //
 // In the code (cpp/src/sim/episode.cpp) each frame is a sequence of named
 // stages, each in its own internal header under cpp/src/sim/stages/ and tested

@@ -19,7 +19,9 @@
 //     the depth inputs (a plane, a depth, a pose):
 //       exact      the true cMo,
 //       desired    the goal's cMo (constant, as the desired depths z*),
-//       pose       ibvs::PlanarPose's estimate from the controller's points,
+//       pose       ibvs::PlanarPose's estimate from the controller's points
+//                  (from their bearings for feature blocks only through a
+//                  wide lens: PlanarPose::estimate_bearings),
 //       estimated  the rigid fit (Kabsch) of the target's points onto the
 //                  points the depth estimate places in the camera frame,
 //                  z_i (u_i, v_i, 1) (needs 3 non-collinear target points);

@@ -5,7 +5,11 @@
 //   desired    the constant goal depths z*;
 //   pose       from ibvs::PlanarPose on the controller's points (the image
 //              alone: its homography step needs no initial guess); the last
-//              estimate is kept when one is degenerate, NaN before the first;
+//              estimate is kept when one is degenerate, NaN before the first.
+//              A task of feature blocks only through a wide lens (bearings:
+//              Measure's bearings_only and sim::wide_lens) takes it from the
+//              points' bearings (PlanarPose::estimate_bearings), which exist
+//              beyond 90 degrees off the axis where normalised points do not;
 //   estimated  ibvs::DepthEstimator (one EKF per point) fed with those points
 //              and the camera's motion between the frames the controller saw,
 //              as the robot's odometry knows it (odometry(), from the actuate
@@ -39,20 +43,25 @@ class Depths {
  public:
   /// options: depth, depth_scale, min_depth, latency and noise (over the camera's focal length:
   /// the estimate's point noise); target_points 3 x N in the target's frame (pose: must be
-  /// planar, else throws std::invalid_argument).
-  Depths(const EpisodeOptions& options, const CameraModel& camera, const Eigen::Matrix3Xd& target_points);
+  /// planar, else throws std::invalid_argument); bearings: the pose mode estimates from the
+  /// points' bearings (teach() and estimate() are then given them).
+  Depths(const EpisodeOptions& options, const CameraModel& camera, const Eigen::Matrix3Xd& target_points,
+         bool bearings = false);
 
   /// The goal's depths z* (N): the desired depths, and the estimate's prior depth_scale z*.
   void aim(const Eigen::VectorXd& depth_desired);
   /// After aim(): what the depth mode knows at the goal from its image uv_desired (2 x N, the
   /// controller's points there), into goal_depth() and goal_pose_estimate() (pose: null, and
   /// goal_depth() z*, when the goal's image is degenerate; the sources stage then refuses the goal).
-  void teach(const Points& uv_desired);
+  /// bearings_desired: the goal's bearings (3 x N; used, and needed, when constructed with bearings).
+  void teach(const Points& uv_desired, const Bearings* bearings_desired = nullptr);
   /// A new run: no pose estimate yet (the depth estimate restarts at frame 0).
   void start() noexcept { have_pose_ = false; }
   /// The depths for frame k (into depth()): uv the controller's points, true_depths
-  /// (1 x N) those of the frame it sees.
-  void estimate(int k, const Points& uv, const Eigen::Ref<const Eigen::RowVectorXd>& true_depths) noexcept;
+  /// (1 x N) those of the frame it sees, bearings its points' bearings (3 x N; used, and needed,
+  /// when constructed with bearings).
+  void estimate(int k, const Points& uv, const Eigen::Ref<const Eigen::RowVectorXd>& true_depths,
+                const Bearings* bearings = nullptr) noexcept;
   /// Frame k's camera motion, T_wc -> T_next (estimated mode: kept in a ring of
   /// latency + 1 for the frame the controller will see latency frames later).
   void odometry(int k, const Pose& T_wc, const Pose& T_next) noexcept;
@@ -75,6 +84,7 @@ class Depths {
   Eigen::Matrix3Xd points_;  // target frame (pose)
   Eigen::VectorXd desired_, z_, goal_z_;
   std::optional<PlanarPose> pose_estimator_;      // pose
+  bool bearings_ = false;                         // pose: from the bearings
   Pose pose_ = Pose::Identity();                  // pose: last estimate, camera <- target
   bool have_pose_ = false;
   Pose goal_pose_ = Pose::Identity();             // pose: the goal's estimate, camera <- target
@@ -86,12 +96,13 @@ class Depths {
 // ---------------------------------------------------------------- implementation
 
 inline Depths::Depths(const EpisodeOptions& options, const CameraModel& camera,
-                      const Eigen::Matrix3Xd& target_points)
+                      const Eigen::Matrix3Xd& target_points, bool bearings)
     : mode_(options.depth),
       scale_(options.depth_scale),
       latency_(options.latency),
       slots_(options.latency + 1),
-      points_(target_points) {
+      points_(target_points),
+      bearings_(bearings) {
   const Eigen::Index n = target_points.cols();
   desired_.resize(n);
   z_.resize(n);
@@ -122,16 +133,23 @@ inline void Depths::aim(const Eigen::VectorXd& depth_desired) {
   }
 }
 
-inline void Depths::teach(const Points& uv_desired) {
+inline void Depths::teach(const Points& uv_desired, const Bearings* bearings_desired) {
   have_goal_pose_ = false;
   if (mode_ == DepthMode::estimated) goal_z_ = scale_ * desired_;
   if (mode_ != DepthMode::pose) return;
-  have_goal_pose_ = pose_estimator_->estimate(uv_desired, goal_pose_, goal_z_);
+  if (bearings_) {
+    have_goal_pose_ = bearings_desired && pose_estimator_->estimate_bearings(*bearings_desired, goal_pose_);
+    if (have_goal_pose_)
+      for (Eigen::Index i = 0; i < goal_z_.size(); ++i)
+        goal_z_(i) = goal_pose_.row(2).head<3>().dot(points_.col(i)) + goal_pose_(2, 3);
+  } else {
+    have_goal_pose_ = pose_estimator_->estimate(uv_desired, goal_pose_, goal_z_);
+  }
   if (have_goal_pose_) goal_z_ *= scale_;
 }
 
-inline void Depths::estimate(int k, const Points& uv,
-                             const Eigen::Ref<const Eigen::RowVectorXd>& true_depths) noexcept {
+inline void Depths::estimate(int k, const Points& uv, const Eigen::Ref<const Eigen::RowVectorXd>& true_depths,
+                             const Bearings* bearings) noexcept {
   switch (mode_) {
     case DepthMode::exact: z_ = true_depths.transpose(); break;
     case DepthMode::desired: z_ = desired_; break;
@@ -145,7 +163,9 @@ inline void Depths::estimate(int k, const Points& uv,
       z_ = depth_estimator_->depth();
       break;
     case DepthMode::pose: {
-      have_pose_ = pose_estimator_->estimate(uv, pose_) || have_pose_;
+      have_pose_ = (bearings_ ? bearings && pose_estimator_->estimate_bearings(*bearings, pose_)
+                              : pose_estimator_->estimate(uv, pose_)) ||
+                   have_pose_;
       for (Eigen::Index i = 0; i < z_.size(); ++i)
         z_(i) = have_pose_ ? (pose_.row(2).head<3>().dot(points_.col(i)) + pose_(2, 3))
                            : std::numeric_limits<double>::quiet_NaN();
