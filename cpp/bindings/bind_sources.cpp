@@ -106,7 +106,9 @@ c*Rc from the depth mode's pose against the goal's as the same mode knew it (exa
 SphericalSource(i=0): the bearing the controller has of point i (the sensor's pixel through
 CameraModel.to_bearing: over a fisheye's or omnidirectional lens's whole field of view, beyond 90
 degrees off the axis too) and its distance from the camera centre under the pose the depth mode gives
-(depth="exact": the true distance; "desired": the goal's). Lost when the pixel has no bearing.)")
+(depth="exact": the true distance; "desired": the goal's; "pose": from ibvs.PlanarPose.estimate_bearings
+of the measured bearings, for a task of feature blocks only through a wide lens). Lost when the pixel
+has no bearing.)")
       .def(py::init([](py::handle i) { return std::make_shared<sim::SphericalSource>(int_in(i, "i", 0, max_points)); }),
            py::arg("i") = 0)
       .def_property_readonly("i", &sim::SphericalSource::i, "The target point's index.")

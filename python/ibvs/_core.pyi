@@ -293,7 +293,8 @@ class DepthEstimator:
         """N, the number of points."""
 
 class PlanarPose:
-    """Camera <- target pose and depths of a planar target (points (N, 3), z = 0, metres)."""
+    """Camera <- target pose and depths of a planar target (points (N, 3), z = 0, metres), from normalised
+    image points (estimate) or from bearings at any angle off the axis (estimate_bearings)."""
 
     def __init__(self, points: _ArrayLike, iterations: int = 5) -> None: ...
     def estimate(self, uv: _ArrayLike) -> Tuple[_FloatArray, _FloatArray, bool]:

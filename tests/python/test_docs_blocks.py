@@ -162,6 +162,8 @@ PRINTS = {
     ("docs/ros.md", 'record="gantry.mcap"'): ["largest difference from the recorded twists: 0"],
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
     ("docs/wide.md", "measurements_desired=goal"): ["target centre 100.6 deg off the axis", "converged at frame"],
+    ("docs/wide.md", "estimator.estimate_bearings(fish.to_bearing(pixels))"): [
+        "deg off the axis: [100.  113.8 109.3  96.1]", "depth=exact: converged", "depth=pose: converged"],
     ("docs/ros.md", "--record run.mcap --rerun run.rrd"): ["converged", "123 twists compared, largest difference"],
     ("docs/features.md", "the same segment, from its other end"): ["error against its reverse: 0.0"],
     ("docs/features.md", "def turn(feature, degrees"): [
