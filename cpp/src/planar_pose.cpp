@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 #include <Eigen/SVD>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -65,19 +66,22 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T, Eigen::Re
 namespace {
 using Matrix9d = Eigen::Matrix<double, 9, 9>;
 
-// Similarity moving the centroid of 2-D points (2 x N, a view without copy) to 0 and their RMS
-// radius to sqrt(2) (Hartley).
-using Points2 = Eigen::Ref<const Eigen::Matrix<double, 2, Eigen::Dynamic>, 0, Eigen::OuterStride<>>;
-Eigen::Matrix3d normaliser(const Points2& p) noexcept {
-  const Eigen::Index n = p.cols();
-  Eigen::Vector2d c = Eigen::Vector2d::Zero();
-  for (Eigen::Index i = 0; i < n; ++i) c += p.col(i);
-  c /= static_cast<double>(n);
+// Similarity moving the centroid of 2-D points to 0 and their RMS radius to sqrt(2) (Hartley). The
+// points' coordinates are p[i * stride], p[i * stride + 1]. (Plain loops here and below where Eigen's
+// expressions would only add template instantiations: compile time, docs/installation.md.)
+Eigen::Matrix3d normaliser(const double* p, Eigen::Index n, Eigen::Index stride) noexcept {
+  double cx = 0.0, cy = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) cx += p[i * stride], cy += p[i * stride + 1];
+  cx /= static_cast<double>(n);
+  cy /= static_cast<double>(n);
   double r2 = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) r2 += (p.col(i) - c).squaredNorm();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double dx = p[i * stride] - cx, dy = p[i * stride + 1] - cy;
+    r2 += dx * dx + dy * dy;
+  }
   const double s = r2 > 0.0 ? std::sqrt(2.0 * static_cast<double>(n) / r2) : 1.0;
   Eigen::Matrix3d N;
-  N << s, 0, -s * c(0), 0, s, -s * c(1), 0, 0, 1;
+  N << s, 0, -s * cx, 0, s, -s * cy, 0, 0, 1;
   return N;
 }
 
@@ -149,20 +153,35 @@ struct BearingPoints {
 // The unit vector of a finite, non-zero column (scaled by its largest entry first: its norm cannot
 // overflow or underflow); false otherwise.
 bool unit(const Eigen::Ref<const Eigen::Matrix3Xd>& b, Eigen::Index i, Eigen::Vector3d& u) noexcept {
-  const Eigen::Vector3d c = b.col(i);
-  if (!c.allFinite()) return false;
-  const double m = c.cwiseAbs().maxCoeff();
+  const double x = b(0, i), y = b(1, i), z = b(2, i);
+  if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return false;
+  const double m = std::max(std::abs(x), std::max(std::abs(y), std::abs(z)));
   if (!(m > 0.0)) return false;
-  u = (c / m).normalized();
+  const double sx = x / m, sy = y / m, sz = z / m, l = std::sqrt(sx * sx + sy * sy + sz * sz);
+  u(0) = sx / l;
+  u(1) = sy / l;
+  u(2) = sz / l;
   return true;
 }
 
-// An orthonormal basis (e1, e2) of the plane orthogonal to the unit vector b, with e1 x e2 = b.
+// a x b.
+Eigen::Vector3d cross(const Eigen::Vector3d& a, const Eigen::Vector3d& b) noexcept {
+  Eigen::Vector3d c;
+  c(0) = a(1) * b(2) - a(2) * b(1);
+  c(1) = a(2) * b(0) - a(0) * b(2);
+  c(2) = a(0) * b(1) - a(1) * b(0);
+  return c;
+}
+
+// An orthonormal basis (e1, e2) of the plane orthogonal to the unit vector b, with e1 x e2 = b:
+// e1 along b x a, a the axis of b's smallest entry.
 void tangent_basis(const Eigen::Vector3d& b, Eigen::Vector3d& e1, Eigen::Vector3d& e2) noexcept {
-  Eigen::Index k = 0;
-  b.cwiseAbs().minCoeff(&k);
-  e1 = b.cross(Eigen::Vector3d::Unit(k)).normalized();
-  e2 = b.cross(e1);
+  const double ax = std::abs(b(0)), ay = std::abs(b(1)), az = std::abs(b(2));
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();
+  a(ax <= ay && ax <= az ? 0 : (ay <= az ? 1 : 2)) = 1.0;
+  e1 = cross(b, a);
+  e1 /= std::sqrt(e1(0) * e1(0) + e1(1) * e1(1) + e1(2) * e1(2));
+  e2 = cross(b, e1);
 }
 }  // namespace
 
@@ -170,7 +189,7 @@ bool PlanarPose::estimate(const Eigen::Ref<const Points>& uv, Pose& T) const noe
   const Eigen::Index n = points_.cols();
   if (uv.cols() != n || !detail::valid_points(uv)) return false;
   // 1. Homography image ~ H (X, Y, 1) by the normalised DLT.
-  const Eigen::Matrix3d Nm = normaliser(points_.topRows<2>()), Ni = normaliser(uv);
+  const Eigen::Matrix3d Nm = normaliser(points_.data(), n, 3), Ni = normaliser(uv.data(), n, uv.outerStride());
   Matrix9d AtA = Matrix9d::Zero();
   for (Eigen::Index i = 0; i < n; ++i) {
     const Eigen::Vector3d X = Nm * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0);
@@ -210,7 +229,7 @@ void PlanarPose::validate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
   for (Eigen::Index i = 0; i < bearings.cols(); ++i) {
     if (unit(bearings, i, u)) continue;
     const std::string which = "ibvs: bearings[" + std::to_string(i) + "]";
-    if (!bearings.col(i).allFinite()) throw std::invalid_argument(which + " is not finite");
+    if (!std::isfinite(bearings(0, i)) || !std::isfinite(bearings(1, i)) || !std::isfinite(bearings(2, i))) throw std::invalid_argument(which + " is not finite");
     throw std::invalid_argument(which + " has zero length (a bearing is a direction)");
   }
 }
@@ -238,13 +257,13 @@ bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
     if (!unit(bearings, i, b)) return false;
     mean += b;
   }
-  if (!(mean.norm() > 1e-12 * static_cast<double>(n))) return false;
-  Eigen::Matrix3d Q;
-  Q.row(2) = mean.normalized().transpose();
+  const double ml = std::sqrt(mean(0) * mean(0) + mean(1) * mean(1) + mean(2) * mean(2));
+  if (!(ml > 1e-12 * static_cast<double>(n))) return false;
+  mean /= ml;
   Eigen::Vector3d e1, e2;
-  tangent_basis(Q.row(2).transpose(), e1, e2);
-  Q.row(0) = e1.transpose();
-  Q.row(1) = e2.transpose();
+  tangent_basis(mean, e1, e2);
+  Eigen::Matrix3d Q;
+  for (int j = 0; j < 3; ++j) Q(0, j) = e1(j), Q(1, j) = e2(j), Q(2, j) = mean(j);
   double axial = 0.0, spread = 0.0;
   for (Eigen::Index i = 0; i < n; ++i) {
     unit(bearings, i, b);
@@ -256,23 +275,29 @@ bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
   if (!std::isfinite(s) || !(s > 0.0)) s = 1.0;  // all bearings alike: the DLT refuses them below
   // 2. Homography b ~ H (X, Y, 1) by the DLT on the normalised bearings c (unit length, so each
   // point weighs the same): the three rows of c x (Hn X) = 0 (rank 2), for any direction of c.
-  const Eigen::Matrix3d Nm = normaliser(points_.topRows<2>());
+  const Eigen::Matrix3d Nm = normaliser(points_.data(), n, 3);
   Matrix9d AtA = Matrix9d::Zero();
   for (Eigen::Index i = 0; i < n; ++i) {
     unit(bearings, i, b);
     const Eigen::Vector3d X = Nm * Eigen::Vector3d(points_(0, i), points_(1, i), 1.0);
     Eigen::Vector3d c = Q * b;
-    c.head<2>() *= s;
-    c.normalize();
+    c(0) *= s;
+    c(1) *= s;
+    c /= std::sqrt(c(0) * c(0) + c(1) * c(1) + c(2) * c(2));
     // The rows [c]_x (I3 kron X^T) of the point give A^T A = ([c]_x^T [c]_x) kron (X X^T), with
     // [c]_x^T [c]_x = I - c c^T for a unit c.
-    const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() - c * c.transpose(), XX = X * X.transpose();
     for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k) AtA.block<3, 3>(3 * j, 3 * k) += C(j, k) * XX;
+      for (int k = 0; k < 3; ++k) {
+        const double cjk = (j == k ? 1.0 : 0.0) - c(j) * c(k);
+        for (int a = 0; a < 3; ++a)
+          for (int d = 0; d < 3; ++d) AtA(3 * j + a, 3 * k + d) += cjk * X(a) * X(d);
+      }
   }
   Eigen::Matrix3d Hn;
   if (!null_homography(AtA, Hn)) return false;
-  const Eigen::Matrix3d H = Q.transpose() * Eigen::Vector3d(1.0 / s, 1.0 / s, 1.0).asDiagonal() * Hn * Nm;
+  Eigen::Matrix3d Ni_inv = Q.transpose();  // (diag(s, s, 1) Q)^-1 = Q^T diag(1/s, 1/s, 1)
+  for (int j = 0; j < 3; ++j) Ni_inv(j, 0) /= s, Ni_inv(j, 1) /= s;
+  const Eigen::Matrix3d H = Ni_inv * Hn * Nm;
   // 3. H ~ [r1 r2 t], its sign putting the points in front along their bearings: b . (H X) > 0 (the
   // sum here; every point is checked below). Not t_z > 0: beyond 90 degrees off the axis z < 0.
   double front = 0.0;
@@ -300,14 +325,18 @@ bool PlanarPose::estimate_bearings(const Eigen::Ref<const Eigen::Matrix3Xd>& bea
     unit(bs, i, u);
     const Eigen::Vector3d p = P.topLeftCorner<3, 3>() * X.col(i) + P.topRightCorner<3, 1>();
     if (!(u.dot(p) > 0.0)) return false;  // not in front along its bearing
-    const double R = p.norm();
+    const double R = std::sqrt(p(0) * p(0) + p(1) * p(1) + p(2) * p(2));
     const Eigen::Vector3d q = p / R;
     tangent_basis(u, t1, t2);
-    r << t1.dot(q), t2.dot(q);
     for (int k = 0; k < 2; ++k) {
       const Eigen::Vector3d& e = k == 0 ? t1 : t2;
-      L.block<1, 3>(k, 0) = -(e - e.dot(q) * q).transpose() / R;  // e^T (I - q q^T) / R
-      L.block<1, 3>(k, 3) = e.cross(q).transpose();                // e^T [q]_x w = e . (q x w) = (e x q) . w
+      const double eq = e(0) * q(0) + e(1) * q(1) + e(2) * q(2);
+      const Eigen::Vector3d w = cross(e, q);  // e^T [q]_x w = e . (q x w) = (e x q) . w
+      r(k) = eq;
+      for (int j = 0; j < 3; ++j) {
+        L(k, j) = -(e(j) - eq * q(j)) / R;  // e^T (I - q q^T) / R
+        L(k, 3 + j) = w(j);
+      }
     }
     return true;
   }, &data);
