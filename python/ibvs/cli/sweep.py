@@ -87,7 +87,8 @@ def add_parser(sub) -> None:
                    help="image-boundary potential margin (measurement units; 0 = off)")
     w.add_argument("--boundary-gain", type=a.number(0, 1e6), help="image-boundary potential gain")
     a.add_angle_wrap(w, None)
-    w.add_argument("--goal-pose", choices=["taught", "given"], help=a.GOAL_POSE_HELP + " (default per scenario: taught)")
+    w.add_argument("--goal-pose", choices=["taught", "given"],
+                   help=a.GOAL_POSE_HELP + " (default per scenario: taught)")
     w.add_argument("--jobs", type=a.number(1, MAX_JOBS, integer=True), help="local worker processes (default: cores)")
     w.add_argument("--batch", type=a.number(1, MAX_EPISODES, integer=True), help="episodes per task")
     w.add_argument("--scheduler", metavar="ADDRESS",
