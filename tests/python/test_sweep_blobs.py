@@ -9,8 +9,12 @@ import multiprocessing
 import pickle
 from types import SimpleNamespace
 
+import functools
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import ibvs
 import ibvs.study.sweep as sw
@@ -129,6 +133,36 @@ def test_a_callable_that_does_not_pickle_is_named():
 
     with pytest.raises(TypeError, match="FunctionSource's callable"):
         pickle.dumps(sim.FunctionSource(ibvs.EllipseFeature(), Unpicklable()))
+
+
+FEATURES = [ibvs.EllipseFeature, ibvs.LineFeature, ibvs.SphericalPointFeature, ibvs.Point25DFeature,
+            lambda: ibvs.SphericalPolarFeature(0.1), lambda: ibvs.PbvsFeature("object"),
+            lambda: ibvs.SegmentFeature(False), lambda: ibvs.MomentsFeature("points", "s", "second_order", ["an"])]
+CALLABLES = [_local_measure, np.zeros_like, functools.partial(_local_measure, 1), lambda *a: None,
+             functools.partial(lambda *a: None, 2), print, object(), 3, None, "measure"]
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.sampled_from(range(len(FEATURES))), st.sampled_from(range(len(CALLABLES))), st.booleans())
+def test_function_source_pickles_or_names_its_callable(kind, which, in_target):
+    """Any feature kind and any object as measure: refused by the constructor (not callable), or pickled with
+    a copy of the same class, size and callable, or a TypeError naming the callable; never a crash."""
+    fn = CALLABLES[which]
+    try:
+        src = sim.FunctionSource(FEATURES[kind](), fn)
+    except TypeError as e:
+        assert "measure must be callable" in str(e) and not callable(fn)
+        return
+    obj = disc().with_features([src]) if in_target else src
+    try:
+        copy = pickle.loads(pickle.dumps(obj))
+    except TypeError as e:
+        assert str(e).startswith("FunctionSource's callable ") and e.__cause__ is not None
+        assert "lambda" in repr(fn)
+        return
+    c = copy.features[0] if in_target else copy
+    assert type(c) is sim.FunctionSource and repr(c) == repr(src) and c.size == src.size
+    assert c.measure == fn or (isinstance(fn, functools.partial) and c.measure.func is fn.func)
 
 
 def test_sweep_over_a_blob_source_on_worker_processes(tmp_path, monkeypatch):
