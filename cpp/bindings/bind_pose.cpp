@@ -221,6 +221,11 @@ pose_desired) builds it from camera <- object poses (e.g. ibvs.PlanarPose's). th
 (pi, 2 pi] is used in its principal form; beyond 2 pi, refused.)")
       .def(py::init([](py::handle target) { return PbvsFeature(target_arg(target)); }),
            py::arg("target") = "desired_camera")
+      .def("__reduce__",
+           [](const PbvsFeature& f) {
+             return py::make_tuple(py::type::of<PbvsFeature>(), py::make_tuple(target_name(f.target())));
+           },
+           "Pickles as PbvsFeature(target).")
       .def_property_readonly("target", [](const PbvsFeature& f) { return target_name(f.target()); },
                              "'desired_camera' or 'object'.")
       .def_static(
@@ -240,6 +245,8 @@ u of c*Rc; the error is (x - x*, y - y*, log(Z/Z*), theta u). L: the point's row
 straight line. Measurement (6): x, y, Z (> 0, metres), theta u (3); measure(pose, pose_desired,
 point) builds it from camera <- object poses and the point in the object frame.)")
       .def(py::init<>())
+      .def("__reduce__", [](py::handle self) { return py::make_tuple(py::type::handle_of(self), py::tuple()); },
+           "Pickles as the class called with no arguments.")
       .def_static(
           "measure",
           [](py::handle pose, py::handle pose_desired, py::handle point) {

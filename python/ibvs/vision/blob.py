@@ -61,6 +61,9 @@ class BlobMeasure:
                 which the tests do not cover)
     Calling it as measure(frame, cMo, depth_pose, goal, uv, depth) renders the blob at cMo and returns the
     block's measurement, or None (lost). image(cMo) and weights(image) give the intermediate steps.
+    It pickles by its arguments (so does the FunctionSource of blob_source, and a Target holding it: a
+    sweep sends it to worker processes): the copy is the BlobMeasure they build, rendering and
+    undistorting anew, its noise restarted at the seed (Renderer.reseed).
     """
 
     def __init__(self, camera, target, feature: str = "ellipse", **renderer_options):
@@ -68,6 +71,7 @@ class BlobMeasure:
             raise ValueError(f"feature must be one of {BLOB_FEATURES}, got {feature!r}")
         if "exposure" in renderer_options:
             raise ValueError("exposure: a blob source is not given the camera's twist (no motion blur)")
+        self._arguments = dict(camera=camera, target=target, feature=feature, **renderer_options)
         self.feature = feature
         self.camera = image_camera(camera)
         kind = "disc" if feature == "ellipse" else "polygon"
@@ -127,6 +131,13 @@ class BlobMeasure:
 
     def __repr__(self) -> str:
         return f"BlobMeasure({self.feature}, {self.renderer!r})"
+
+    def __getstate__(self) -> dict:
+        # Its arguments, a few hundred bytes (its renderer's textures and the undistortion maps are megabytes).
+        return dict(self._arguments)
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(**state)
 
 
 def blob_source(camera, target, feature: str = "ellipse", **renderer_options):
