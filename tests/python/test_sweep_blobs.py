@@ -184,3 +184,22 @@ def test_sweep_over_a_blob_source_on_worker_processes(tmp_path, monkeypatch):
     assert len(serial) == 4 and repr(parallel) == repr(serial)
     assert {r["outcome"] for r in serial} <= {"timeout", "converged"}  # the blob measured all along
     assert len({r["path_length"] for r in serial}) == 4  # four different episodes
+
+
+def test_a_blob_sources_options_enter_the_sweeps_config_hash():
+    """A sweep's row ids (resuming a CSV) hash the scenario: two blob sources that differ only in their
+    renderer's options give different keys, the same arguments the same key, and a source
+    whose callable does not pickle is keyed by the callable's name."""
+    quad = compare.target()
+    cam = sim.cases.z_rotation().camera
+
+    def key(source):
+        return Scenario(camera=cam, target=quad.with_features([source]), goal=np.eye(4),
+                        ranges={"tz": (-0.1, 0.1)}, name="blob").key()
+
+    plain = key(vision.blob_source(cam, quad, "moments"))
+    assert key(vision.blob_source(cam, quad, "moments")) == plain
+    assert key(vision.blob_source(cam, quad, "moments", noise=2.0)) != plain
+    assert key(vision.blob_source(cam, quad, "moments", blur=1.5)) != plain
+    by_name = key(sim.FunctionSource(ibvs.MomentsFeature("region"), lambda *a: None))
+    assert by_name != plain and by_name == key(sim.FunctionSource(ibvs.MomentsFeature("region"), lambda *a: None))

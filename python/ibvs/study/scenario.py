@@ -156,6 +156,12 @@ def _canonical(x):
         return [_canonical(v) for v in x]
     if isinstance(x, (types.FunctionType, types.BuiltinFunctionType, types.MethodType, functools.partial, type)):
         return _callable_name(x)
+    if isinstance(x, sim.FunctionSource):  # its feature and its callable (its repr names only the feature's kind)
+        try:
+            feature, measure = x.__reduce__()[1]
+        except TypeError:  # a callable that does not pickle: its name
+            return ["FunctionSource", repr(x), _callable_name(x.measure)]
+        return ["FunctionSource", _canonical(feature), _canonical(measure)]
     if isinstance(x, sim.UrdfRobot):  # its URDF's content, not where it lies; not its Pinocchio objects
         return ["UrdfRobot", _canonical(x.fingerprint())]
     try:  # native objects (Camera, Target, Gantry) through their pickle state
