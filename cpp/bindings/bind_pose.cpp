@@ -269,6 +269,24 @@ update() alike). Stack it with any other block in a Task.)")
              return PyFunctionFeature(r, n, std::move(fn), std::move(name));
            }),
            py::arg("rows"), py::arg("size"), py::arg("fn"), py::arg("name") = "function")
+      .def(
+          "__reduce__",
+          [](const PyFunctionFeature& f) {
+            const py::object& fn = f.function();
+            try {  // name the callable when it does not pickle (pickle's own error names only its type)
+              py::module_::import("pickle").attr("dumps")(fn);
+            } catch (py::error_already_set& e) {
+              if (!e.matches(PyExc_Exception)) throw;
+              py::raise_from(e, PyExc_TypeError,
+                             ("FunctionFeature's fn " + py::repr(fn).cast<std::string>() +
+                              " does not pickle (a lambda or a local function does not; give a module-level function "
+                              "or an instance of a module-level class with __call__)")
+                                 .c_str());
+              throw py::error_already_set();
+            }
+            return py::make_tuple(py::type::of<PyFunctionFeature>(), py::make_tuple(f.rows(), f.size(), fn, f.name()));
+          },
+          "Pickles as FunctionFeature(rows, size, fn, name) when fn pickles; TypeError naming it otherwise.")
       .def_property_readonly("fn", &PyFunctionFeature::function, "The callable.")
       .def_property_readonly("name", &PyFunctionFeature::name,
                              "The block's name in describe() and repr (default \"function\").");

@@ -97,6 +97,12 @@ def test_features_pickle_with_their_arguments():
     assert pickle.loads(pickle.dumps(ibvs.SphericalPolarFeature(0.25))).min_sin == 0.25
     assert pickle.loads(pickle.dumps(ibvs.PbvsFeature("object"))).target == "object"
     assert pickle.loads(pickle.dumps(ibvs.SegmentFeature(False))).normalized is False
+    # a block of your own: by rows, size, callable and name (a callable that does not pickle is named)
+    f = pickle.loads(pickle.dumps(ibvs.FunctionFeature(2, 3, np.add, "mine")))
+    assert (f.rows, f.size, f.fn, f.name) == (2, 3, np.add, "mine")
+    with pytest.raises(TypeError, match="FunctionFeature's fn <function .*<lambda>.* does not pickle") as e:
+        pickle.dumps(sim.FunctionSource(ibvs.FunctionFeature(2, 3, lambda m: None), _local_measure))
+    assert e.value.__cause__ is not None
     # the copy feeds the same blocks: a FunctionSource of it fits the Task of the original kind
     src = pickle.loads(pickle.dumps(sim.FunctionSource(ibvs.SegmentFeature(False), np.zeros_like)))
     assert src.size == 6 and src.measure is np.zeros_like
@@ -203,3 +209,53 @@ def test_a_blob_sources_options_enter_the_sweeps_config_hash():
     assert key(vision.blob_source(cam, quad, "moments", blur=1.5)) != plain
     by_name = key(sim.FunctionSource(ibvs.MomentsFeature("region"), lambda *a: None))
     assert by_name != plain and by_name == key(sim.FunctionSource(ibvs.MomentsFeature("region"), lambda *a: None))
+    # the feature by its arguments, not its repr (which rounds, and names a block of your own by its rows only)
+    keys = {key(sim.FunctionSource(f, _local_measure)) for f in (
+        ibvs.FunctionFeature(2, 2, np.add), ibvs.FunctionFeature(2, 2, np.subtract), ibvs.FunctionFeature(2, 3, np.add),
+        ibvs.SphericalPolarFeature(0.2), ibvs.SphericalPolarFeature(0.2000001))}
+    assert len(keys) == 5
+
+
+class _Measure:  # a callable instance whose repr holds its address
+    def __call__(self, *args):
+        return None
+
+
+def test_the_config_hash_of_an_unpicklable_callable_instance_is_the_same_in_every_process():
+    """A callable instance that does not pickle is hashed by its class, not its repr (its address), so a sweep
+    resumed in another process finds its rows."""
+    code = ("import numpy as np, ibvs; from ibvs import sim; from ibvs.study import compare; "
+            "from ibvs.study.scenario import Scenario; from tests.python.test_sweep_blobs import _Measure; "
+            "m = _Measure(); m.lock = __import__('threading').Lock(); "
+            "src = sim.FunctionSource(ibvs.MomentsFeature('region'), m); "
+            "print(Scenario(camera=sim.cases.z_rotation().camera, target=compare.target().with_features([src]), "
+            "goal=np.eye(4), ranges={'tz': (-0.1, 0.1)}, name='blob').key())")
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.getcwd(), *sys.path]))
+    keys = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+                           ).stdout.strip() for _ in range(2)}
+    assert len(keys) == 1 and len(keys.pop()) == 10
+
+
+def test_a_noisy_blob_episode_does_not_depend_on_the_episodes_before_it():
+    """A noisy blob's noise restarts at every episode's goal and start (from the seed and the pose): an episode
+    run after another one is the same bit for bit as run first by a fresh measure, and two starts get
+    different noise."""
+    quad = compare.target()
+    cam = sim.cases.z_rotation().camera
+
+    def episode(measure, rz):
+        target = quad.with_features([sim.FunctionSource(ibvs.MomentsFeature("region"), measure)])
+        return sim.run(schemes.moments(1.0), cam, target, sim.pose(t=(0.02, 0.0, 0.05), r=(0.0, 0.0, rz)),
+                       np.eye(4), duration=0.3)
+
+    noisy = dict(noise=3.0, seed=5)
+    shared = vision.BlobMeasure(cam, quad, "moments", **noisy)
+    first = episode(shared, 0.3)
+    second = episode(shared, 0.5)
+    same_run(second, episode(vision.BlobMeasure(cam, quad, "moments", **noisy), 0.5))
+    same_run(first, episode(shared, 0.3))  # and again after the other one
+    quiet = episode(vision.BlobMeasure(cam, quad, "moments"), 0.5)
+    assert not np.array_equal(second.history.measurements, quiet.history.measurements)  # the noise is there

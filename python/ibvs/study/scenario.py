@@ -139,7 +139,10 @@ def _callable_name(f) -> str:
     """A stable name of a start callable, for the config hash."""
     if isinstance(f, functools.partial):
         return f"partial({_callable_name(f.func)}, {f.args!r}, {sorted(f.keywords.items())!r})"
-    return f"{getattr(f, '__module__', '?')}.{getattr(f, '__qualname__', repr(f))}"
+    name = getattr(f, "__qualname__", None) or getattr(f, "__name__", None)
+    if name is None:  # an instance with __call__: its class (its repr may hold its address, new in every process)
+        return f"{type(f).__module__}.{type(f).__qualname__}()"
+    return f"{getattr(f, '__module__', '?')}.{name}"
 
 
 def _canonical(x):
@@ -156,12 +159,14 @@ def _canonical(x):
         return [_canonical(v) for v in x]
     if isinstance(x, (types.FunctionType, types.BuiltinFunctionType, types.MethodType, functools.partial, type)):
         return _callable_name(x)
-    if isinstance(x, sim.FunctionSource):  # its feature and its callable (its repr names only the feature's kind)
+    if type(x).__module__.startswith("ibvs") and type(x).__reduce__ is not object.__reduce__:
+        # native objects that pickle as their constructor's arguments (the feature kinds, FunctionSource):
+        # those arguments (their repr may round or leave some out)
         try:
-            feature, measure = x.__reduce__()[1]
-        except TypeError:  # a callable that does not pickle: its name
-            return ["FunctionSource", repr(x), _callable_name(x.measure)]
-        return ["FunctionSource", _canonical(feature), _canonical(measure)]
+            return [type(x).__name__, _canonical(x.__reduce__()[1])]
+        except TypeError:  # its callable does not pickle (FunctionSource, FunctionFeature): the callable's name
+            fn = getattr(x, "measure", None) or getattr(x, "fn", None)
+            return [type(x).__name__, repr(x), _callable_name(fn)]
     if isinstance(x, sim.UrdfRobot):  # its URDF's content, not where it lies; not its Pinocchio objects
         return ["UrdfRobot", _canonical(x.fingerprint())]
     try:  # native objects (Camera, Target, Gantry) through their pickle state
