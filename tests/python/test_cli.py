@@ -86,6 +86,7 @@ def test_run_goal_pose(capsys):
         assert main(["run", "--world", "gantry", "--scheme", "pbvs", "--goal-pose", g]) == 0
         out = capsys.readouterr().out
         moved[g] = float(next(x for x in out.splitlines() if "Δp at the last frame" in x).split()[-1])
+        assert ("goal pose given" in out.splitlines()[0]) == (g == "given")  # the title says which
     assert moved["taught"] < 0.005 and 0.03 < moved["given"] < 0.3, moved  # mm
 
 

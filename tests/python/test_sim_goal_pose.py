@@ -159,3 +159,14 @@ def test_given_goal_2_5d(calibration):
                                atol=1e-5)
     last = np.asarray(given.history.measured)[-1].reshape(-1, 2)[0]
     np.testing.assert_allclose(last, np.asarray(given.measured_desired)[0], rtol=0, atol=1e-3)  # pixels
+
+
+def test_scenario_replace_takes_goal_pose():
+    """Scenario.replace(goal_pose=) sets goal_pose_mode (goal_pose() is the goal's 4x4 pose), as sweep() and
+    scenario files name it; a bad value is refused naming goal_pose."""
+    from ibvs.study.scenario import builtin
+
+    s = builtin("free").replace(goal_pose="given")
+    assert s.goal_pose_mode == "given" and s.goal_pose().shape == (4, 4)
+    with pytest.raises(ValueError, match="goal_pose"):
+        builtin("free").replace(goal_pose="measured").validate()

@@ -130,6 +130,7 @@ def command(args) -> int:
     from ..study.schemes import TITLES
 
     wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
+    wrap += ", goal pose given" if args.goal_pose == "given" else ""
     title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}{wrap}"
     print(title)
     lines = row.report()

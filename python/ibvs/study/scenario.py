@@ -234,8 +234,11 @@ class Scenario:
         return " and ".join(parts)
 
     def replace(self, **changes) -> "Scenario":
-        """A copy with some fields changed (None values are ignored); ranges are merged."""
+        """A copy with some fields changed (None values are ignored); ranges are merged. goal_pose= is
+        goal_pose_mode= (the name sim.run, sweep() and scenario files use; goal_pose() is the goal's pose)."""
         changes = {k: v for k, v in changes.items() if v is not None}
+        if "goal_pose" in changes:
+            changes["goal_pose_mode"] = changes.pop("goal_pose")
         if "ranges" in changes:
             changes["ranges"] = {**self.ranges, **changes["ranges"]}
         return dataclasses.replace(self, **changes)
