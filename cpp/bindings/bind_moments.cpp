@@ -116,6 +116,19 @@ binary image, ibvs.vision.image_moments().)")
                                return names;
                              },
                              "The selected rows, in order.")
+      .def("__reduce__",
+           [](const MomentsFeature& f) {
+             py::list rows;
+             for (unsigned b = 0; b < 6; ++b)
+               if ((f.selected() >> b) & 1u) rows.append(row_names[b]);
+             return py::make_tuple(
+                 py::type::of<MomentsFeature>(),
+                 py::make_tuple(f.source() == Src::region ? "region" : "points",
+                                f.invariants() == MomentsFeature::Invariants::p ? "p" : "s",
+                                f.alpha_kind() == MomentsFeature::Alpha::third_order ? "third_order" : "second_order",
+                                rows));
+           },
+           "Pickles as MomentsFeature(source, invariants, alpha, rows).")
       .def_static(
           "of_points",
           [](py::handle xy) {

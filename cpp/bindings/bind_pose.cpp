@@ -221,6 +221,11 @@ pose_desired) builds it from camera <- object poses (e.g. ibvs.PlanarPose's). th
 (pi, 2 pi] is used in its principal form; beyond 2 pi, refused.)")
       .def(py::init([](py::handle target) { return PbvsFeature(target_arg(target)); }),
            py::arg("target") = "desired_camera")
+      .def("__reduce__",
+           [](const PbvsFeature& f) {
+             return py::make_tuple(py::type::of<PbvsFeature>(), py::make_tuple(target_name(f.target())));
+           },
+           "Pickles as PbvsFeature(target).")
       .def_property_readonly("target", [](const PbvsFeature& f) { return target_name(f.target()); },
                              "'desired_camera' or 'object'.")
       .def_static(
@@ -240,6 +245,8 @@ u of c*Rc; the error is (x - x*, y - y*, log(Z/Z*), theta u). L: the point's row
 straight line. Measurement (6): x, y, Z (> 0, metres), theta u (3); measure(pose, pose_desired,
 point) builds it from camera <- object poses and the point in the object frame.)")
       .def(py::init<>())
+      .def("__reduce__", [](py::handle self) { return py::make_tuple(py::type::handle_of(self), py::tuple()); },
+           "Pickles as the class called with no arguments.")
       .def_static(
           "measure",
           [](py::handle pose, py::handle pose_desired, py::handle point) {
@@ -262,6 +269,24 @@ update() alike). Stack it with any other block in a Task.)")
              return PyFunctionFeature(r, n, std::move(fn), std::move(name));
            }),
            py::arg("rows"), py::arg("size"), py::arg("fn"), py::arg("name") = "function")
+      .def(
+          "__reduce__",
+          [](const PyFunctionFeature& f) {
+            const py::object& fn = f.function();
+            try {  // name the callable when it does not pickle (pickle's own error names only its type)
+              py::module_::import("pickle").attr("dumps")(fn);
+            } catch (py::error_already_set& e) {
+              if (!e.matches(PyExc_Exception)) throw;
+              py::raise_from(e, PyExc_TypeError,
+                             ("FunctionFeature's fn " + py::repr(fn).cast<std::string>() +
+                              " does not pickle (a lambda or a local function does not; give a module-level function "
+                              "or an instance of a module-level class with __call__)")
+                                 .c_str());
+              throw py::error_already_set();
+            }
+            return py::make_tuple(py::type::of<PyFunctionFeature>(), py::make_tuple(f.rows(), f.size(), fn, f.name()));
+          },
+          "Pickles as FunctionFeature(rows, size, fn, name) when fn pickles; TypeError naming it otherwise.")
       .def_property_readonly("fn", &PyFunctionFeature::function, "The callable.")
       .def_property_readonly("name", &PyFunctionFeature::name,
                              "The block's name in describe() and repr (default \"function\").");

@@ -74,6 +74,11 @@ rows composed (equal to ViSP's closed form). Refused: a segment shorter than 1e-
 depths outside [1e-6, 1e6] m, a centre beyond 10 (normalised), non-finite values.)")
       .def(py::init([](py::handle normalized) { return SegmentFeature(boolean(normalized, "normalized")); }),
            py::arg("normalized") = true)
+      .def("__reduce__",
+           [](const SegmentFeature& f) {
+             return py::make_tuple(py::type::of<SegmentFeature>(), py::make_tuple(f.normalized()));
+           },
+           "Pickles as SegmentFeature(normalized).")
       .def_property_readonly("normalized", &SegmentFeature::normalized,
                              "True: features (xc/l, yc/l, 1/l, alpha); False: (xc, yc, l, alpha).")
       .def_static(
@@ -105,6 +110,8 @@ plane seen edge-on or behind the camera over the ellipse, a centroid beyond 10 (
 non-finite values. A circle seen fronto-parallel and centred is a singular configuration (the
 five rows have rank 3).)")
       .def(py::init<>())
+      .def("__reduce__", [](py::handle self) { return py::make_tuple(py::type::handle_of(self), py::tuple()); },
+           "Pickles as the class called with no arguments.")
       .def_static(
           "project_circle",
           [](py::handle centre, py::handle normal, py::handle radius) {

@@ -207,6 +207,16 @@ DepthMode depth_mode(py::handle obj) {
   throw py::value_error("depth must be 'exact', 'pose', 'desired' or 'estimated', got '" + s + "'");
 }
 
+GoalPose goal_pose_of(py::handle obj) {
+  if (!py::isinstance<py::str>(obj))
+    throw py::type_error("goal_pose must be 'taught' or 'given', got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  const auto s = obj.cast<std::string>();
+  if (s == "taught") return GoalPose::taught;
+  if (s == "given") return GoalPose::given;
+  throw py::value_error("goal_pose must be 'taught' or 'given', got '" + s + "'");
+}
+
 // A fresh C++ servo with exactly the layout and options of the C++ servo the
 // Python ibvs.Servo / ibvs.PartitionedServo holds (the episode owns its servo;
 // the run never mutates the caller's). A Servo copy keeps its diagnostics on:
@@ -629,7 +639,7 @@ it stops the episode and is raised by run().)")
           py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double tolerance_px, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain,
-          double standoff_ratio, py::handle sensor, bool keep_lost) {
+          double standoff_ratio, py::handle sensor, bool keep_lost, py::handle goal_pose) {
         EpisodeOptions o;
         o.duration = duration;
         o.noise = noise;
@@ -646,6 +656,7 @@ it stops the episode and is raised by run().)")
         o.boundary_gain = boundary_gain;
         o.standoff_ratio = standoff_ratio;
         o.keep_lost = keep_lost;
+        o.goal_pose = goal_pose_of(goal_pose);
         std::shared_ptr<Sensor> py_sensor_held;
         PySensor* py_sensor = nullptr;
         if (!sensor.is_none()) {
@@ -715,6 +726,6 @@ it stops the episode and is raised by run().)")
       py::arg("tolerance_px") = 0.0, py::arg("max_depth_ratio") = 10.0,
       py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
       py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1, py::arg("standoff_ratio") = 0.05,
-      py::arg("sensor") = py::none(), py::arg("keep_lost") = false,
+      py::arg("sensor") = py::none(), py::arg("keep_lost") = false, py::arg("goal_pose") = "taught",
       "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
 }

@@ -183,6 +183,35 @@ class FunctionSource final : public sim::FeatureSource {
   std::shared_ptr<Held> fn_;
 };
 
+/// FunctionSource(feature, measure) from Python arguments, checked (the constructor and the unpickling).
+std::shared_ptr<FunctionSource> make_function_source(py::handle feature, py::handle measure) {
+  if (!py::isinstance<Feature>(feature))
+    throw py::type_error("feature must be an ibvs.Feature (e.g. ibvs.EllipseFeature()), got " + type_name(feature));
+  if (!PyCallable_Check(measure.ptr())) throw py::type_error("measure must be callable, got " + type_name(measure));
+  return std::make_shared<FunctionSource>(std::shared_ptr<const Feature>(feature.cast<const Feature&>().clone()),
+                                          py::reinterpret_borrow<py::object>(measure));
+}
+
+/// What a FunctionSource pickles as: FunctionSource(feature, measure). The callable is pickled once first
+/// (the standard pickle module), so that one which does not pickle (a lambda, a local function) is named
+/// in a TypeError rather than in pickle's message about a function nobody sees here.
+py::tuple reduce_function_source(const FunctionSource& x) {
+  const py::object fn = x.function();
+  try {
+    py::module_::import("pickle").attr("dumps")(fn);
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_Exception)) throw;
+    py::raise_from(e, PyExc_TypeError,
+                   ("FunctionSource's callable " + py::repr(fn).cast<std::string>() +
+                    " does not pickle (a lambda or a local function does not; give a module-level function or an "
+                    "instance of a module-level class with __call__, as ibvs.vision.BlobMeasure)")
+                       .c_str());
+    throw py::error_already_set();
+  }
+  return py::make_tuple(py::type::of<FunctionSource>(),
+                        py::make_tuple(py::cast(std::shared_ptr<Feature>(x.feature().clone())), fn));
+}
+
 /// Raises the first exception a FunctionSource of the target kept during a run.
 void raise_kept(const sim::Target& t) {
   for (const auto& s : t.sources)
@@ -269,20 +298,15 @@ the estimate from the goal's image), uv (N, 2) the controller's points (normalis
 their depths;
 it returns the block's measurement (feature.size values) or None (cannot measure: the episode ends
 as lost_feature). An exception it raises ends the episode and is raised by ibvs.sim.run.
-ibvs.vision.blob_source is one (blob moments and ellipses from rendered images).)")
-      .def(py::init([](py::handle feature, py::handle measure) {
-             if (!py::isinstance<Feature>(feature))
-               throw py::type_error("feature must be an ibvs.Feature (e.g. ibvs.EllipseFeature()), got " +
-                                    type_name(feature));
-             if (!PyCallable_Check(measure.ptr()))
-               throw py::type_error("measure must be callable, got " + type_name(measure));
-             return std::make_shared<FunctionSource>(
-                 std::shared_ptr<const Feature>(feature.cast<const Feature&>().clone()),
-                 py::reinterpret_borrow<py::object>(measure));
-           }),
-           py::arg("feature"), py::arg("measure"))
+ibvs.vision.blob_source is one (blob moments and ellipses from rendered images). It pickles (and
+so does a Target holding it: sweeps on worker processes or Dask) when measure pickles with the
+standard pickle module (a module-level function or class instance); otherwise pickling raises a
+TypeError naming the callable.)")
+      .def(py::init(&make_function_source), py::arg("feature"), py::arg("measure"))
       .def_property_readonly("measure", &FunctionSource::function, "The callable.")
-      .def("__repr__", [](const FunctionSource& x) { return "FunctionSource(" + x.feature().describe() + ")"; });
+      .def("__repr__", [](const FunctionSource& x) { return "FunctionSource(" + x.feature().describe() + ")"; })
+      .def("__reduce__", &reduce_function_source,
+           "Pickles as FunctionSource(feature, measure) when measure pickles; TypeError naming it otherwise.");
 
   s.def(
       "plane_in_camera",

@@ -152,6 +152,8 @@ Interaction matrix: Espiau, Chaumette & Rives 1992 (ViSP's vpFeatureLine with A 
 B = -B'/D', C = -C'/D'). The line is also (-rho, theta + pi): the error uses the form nearest the
 goal's, theta's difference wrapped into (-pi, pi].)")
       .def(py::init<>())
+      .def("__reduce__", [](py::handle self) { return py::make_tuple(py::type::handle_of(self), py::tuple()); },
+           "Pickles as the class called with no arguments.")
       .def_static(
           "measure",
           [](py::handle p1, py::handle p2, py::handle plane) {
@@ -173,6 +175,8 @@ R = |P| in metres; SphericalPointFeature.measure(P) builds it from a camera-fram
 off the optical axis, behind the camera too. Interaction matrix [-(I - b b^T) / R, [b]_x] (Hamel &
 Mahony, IEEE T-RA 2002, eq. 9), rank 2.)")
       .def(py::init<>())
+      .def("__reduce__", [](py::handle self) { return py::make_tuple(py::type::handle_of(self), py::tuple()); },
+           "Pickles as the class called with no arguments.")
       .def_static(
           "measure",
           [](py::handle P) {
@@ -194,6 +198,11 @@ Measurement (4): bx, by, bz, R as SphericalPointFeature. Interaction matrix: Cor
 there has no azimuth (its error is 0).)")
       .def(py::init([](py::handle min_sin) { return SphericalPolarFeature(real(min_sin, "min_sin")); }),
            py::arg("min_sin") = default_polar_min_radius)
+      .def("__reduce__",
+           [](const SphericalPolarFeature& f) {
+             return py::make_tuple(py::type::of<SphericalPolarFeature>(), py::make_tuple(f.min_sin()));
+           },
+           "Pickles as SphericalPolarFeature(min_sin).")
       .def_property_readonly("min_sin", &SphericalPolarFeature::min_sin,
                              "sin(colatitude) below which the current point uses its (bx, by) rows.");
 

@@ -1197,6 +1197,7 @@ class sim:
         standoff_ratio: float = 0.05,
         sensor: sim.Sensor | None = None,
         keep_lost: bool = False,
+        goal_pose: str = "taught",
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""
 

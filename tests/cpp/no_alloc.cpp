@@ -171,7 +171,7 @@ void feature_episode_allocates_nothing() {
 
 // Episodes of moments, PBVS and 2.5-D tasks (their simulator sources, every depth mode that moves
 // them; in the pose and estimated modes their goal is estimated from the goal's image when run()
-// teaches it) on an asymmetric planar quadrilateral: nothing allocated in run().
+// teaches it, or given) on an asymmetric planar quadrilateral: nothing allocated in run().
 void pose_moments_episode_allocates_nothing() {
   using namespace sim_cases;
   Eigen::Matrix3Xd quad(3, 4);
@@ -199,13 +199,17 @@ void pose_moments_episode_allocates_nothing() {
         task.add(PbvsFeature(pt));
         t.add(sim::PbvsSource(pt));
       }
-      Episode e(Servo(task, ServoOptions{}), CameraModel::normalized(0.3), t, o);
-      const long before = news.load();
-      const EpisodeResult& r = e.run(general_motion(), Pose::Identity());
-      const long during = news.load() - before;
-      ibvs_test::report(during == 0, "no allocation in Episode::run of a moments / PBVS / 2.5-D task", __FILE__,
-                        __LINE__, task.feature(0).describe() + " " + to_string(depth) + ": " + std::to_string(during));
-      CHECK(r.history.frames > 10);
+      for (GoalPose goal_pose : {GoalPose::taught, GoalPose::given}) {  // the goal taught or given
+        o.goal_pose = goal_pose;
+        Episode e(Servo(task, ServoOptions{}), CameraModel::normalized(0.3), t, o);
+        const long before = news.load();
+        const EpisodeResult& r = e.run(general_motion(), Pose::Identity());
+        const long during = news.load() - before;
+        ibvs_test::report(during == 0, "no allocation in Episode::run of a moments / PBVS / 2.5-D task", __FILE__,
+                          __LINE__, task.feature(0).describe() + " " + to_string(depth) + " " + to_string(goal_pose) +
+                                        ": " + std::to_string(during));
+        CHECK(r.history.frames > 10);
+      }
     }
   }
 }

@@ -747,8 +747,8 @@ void fuzz_task(Bytes& b) {
 // Feature sources: a LineSource (SegmentSource, EllipseSource) of any indices (centre, normal,
 // radius) on a target of any points is accepted or refused (std::invalid_argument); from any poses
 // and points (and bearings), measure() answers false or finite values (every source); a short
-// episode of a line task (or a PBVS + 2.5-D task, any depth mode and depth_scale: the goal estimated
-// from its image) from any start either throws std::invalid_argument or ends with finite recorded
+// episode of a line task (or a PBVS + 2.5-D task, any depth mode, depth_scale and goal_pose: the goal
+// estimated from its image or given) from any start either throws std::invalid_argument or ends with finite recorded
 // errors.
 void fuzz_sources(Bytes& b) {
   using namespace ibvs::sim;
@@ -838,6 +838,7 @@ void fuzz_sources(Bytes& b) {
   o.duration = 0.05;
   o.depth = static_cast<DepthMode>(b.small(0, 3));
   o.depth_scale = b.byte() < 192 ? 1.0 : 0.5 + b.byte() / 128.0;
+  o.goal_pose = static_cast<GoalPose>(b.small(0, 2));  // taught, given, or an invalid value (refused)
   t.pose = Pose::Identity();
   t.pose(2, 3) = 1.0 + b.byte() / 64.0;
   if (b.byte() < 96) {  // PBVS and 2.5-D instead: their goal as the depth mode knows it (teach by showing)

@@ -4,7 +4,8 @@
 // the controller's points with the plane of the true (or the depth mode's)
 // pose, computed here independently; a user-defined source plugs in; a source
 // that cannot measure ends the episode as lost_feature; bad set-ups are refused;
-// the sources stage's goal is the goal as the depth mode knows it (teach by showing).
+// the sources stage's goal is the goal as the depth mode knows it (teach by showing), or the
+// true one given (GoalPose::given), and PBVS then keeps a wrong camera model's bias.
 #include "check.hpp"
 #include "projected_line_source.hpp"
 #include "sim_cases.hpp"
@@ -305,6 +306,122 @@ void sources_aim_at_the_goal_as_known() {
       CHECK_THROWS(refused.teach(goal, uv, zg, nullptr));  // the goal's image gave no estimate
     }
   }
+  // goal_pose given: the goal is the true pose in every mode (not times depth_scale), the same frame
+  // measures PBVS against it from the mode's depth pose; 2.5-D's Z* stays the depth stage's; the pose
+  // mode needs no estimate of the goal's image.
+  for (DepthMode mode : {DepthMode::exact, DepthMode::desired, DepthMode::pose, DepthMode::estimated}) {
+    EpisodeOptions o;
+    o.depth = mode;
+    o.depth_scale = 1.5;
+    o.goal_pose = GoalPose::given;
+    stages::Sources s(t, &task, o);
+    const bool given = mode == DepthMode::exact || mode == DepthMode::desired;
+    const Eigen::VectorXd zg = given ? z : Eigen::VectorXd(1.5 * z);
+    s.teach(goal, uv, zg, mode == DepthMode::pose ? nullptr : &wrong);
+    for (int r = 0; r < 6; ++r) CHECK_NEAR(s.desired()(r), 0.0, 1e-12);
+    CHECK_NEAR(s.desired()(8), zg(2), 1e-12);
+    CHECK(s.measure(3, T_cw, &wrong, uv, zg) < 0);
+    const Eigen::VectorXd m = s.measurements();
+    // the mode's depth pose, translation times 1.5: the true one (exact, desired: the goal's, this
+    // frame's), the estimate (pose), the fit to the points at 1.5 z (estimated; the square's centroid is 0)
+    Pose depth_pose = mode == DepthMode::pose ? wrong : true_cMo;
+    depth_pose.topRightCorner<3, 1>() *= 1.5;
+    const auto want = PbvsFeature::measure(depth_pose, true_cMo, PbvsTarget::desired_camera);
+    for (int r = 0; r < 6; ++r)
+      ibvs_test::report(std::abs(m(r) - want[static_cast<std::size_t>(r)]) < 1e-9,
+                        "PBVS measured against the goal given", __FILE__, __LINE__,
+                        std::string(to_string(mode)) + " entry " + std::to_string(r) + ": " + std::to_string(m(r)));
+  }
+  EpisodeOptions bad;
+  bad.goal_pose = static_cast<GoalPose>(2);
+  CHECK_THROWS(bad.validate());
+  CHECK(std::string(to_string(GoalPose::given)) == "given" && std::string(to_string(GoalPose::taught)) == "taught");
+}
+
+// A camera whose controller believes the focal length s f and the principal point (u0 + du, v0 + dv):
+// it normalises every true pixel with that model, x' = (u - u0 - du) / (s f). The episode normalises the
+// measurement with the true model, so this sensor reports u0 + f x' = u0 + (u - u0 - du) / s (as
+// Python's sim.MiscalibratedCamera does for a pinhole believed model), the goal's pixels included.
+class BelievedPinhole final : public Sensor {
+ public:
+  BelievedPinhole(double u0, double v0, double s, double du, double dv) : u0_(u0), v0_(v0), s_(s), du_(du), dv_(dv) {}
+  void reset(std::uint64_t) noexcept override {}
+  bool measure(const SensorFrame& f, Eigen::Ref<Points> m) noexcept override {
+    for (Eigen::Index i = 0; i < m.cols(); ++i) {
+      m(0, i) = u0_ + ((*f.projected)(0, i) - u0_ - du_) / s_;
+      m(1, i) = v0_ + ((*f.projected)(1, i) - v0_ - dv_) / s_;
+    }
+    return true;
+  }
+
+ private:
+  double u0_, v0_, s_, du_, dv_;
+};
+
+// PBVS with the pose depth mode and a wrong camera model (docs/compare.md, "Calibration errors"), the
+// goal fronto-parallel at Z* = 3 m. Taught, the goal's estimate has the current one's bias and PBVS ends
+// at the goal. Given, PBVS ends where the estimate equals the true goal pose: a planar target seen
+// fronto-parallel through focal length s f looks like the true one at s times its depth (x' = X / (s Z)),
+// so the camera stops at Z* / s from it, Z* (1/s - 1) behind the goal along the optical axis; a principal
+// point off by d (px) shifts every normalised point by -d / f, which the estimate reads as the target
+// shifted by -Z d / f, so the camera stops Z* d / f to the side (world x, y = -Z* du / f, -Z* dv / f; the
+// goal camera is the world frame). With the exact depth mode the depth pose is the true one: given or
+// taught, PBVS ends at the goal, bit for bit the same run.
+void given_goal_pose_keeps_the_calibration_bias() {
+  const double f = 800.0, Z = 3.0;
+  const CameraModel cam = CameraModel::pinhole(f, f, 320, 320, 640, 640);
+  Eigen::Matrix3Xd quad(3, 4);  // an asymmetric planar quadrilateral, about 0.5 m across
+  quad << 0.30, -0.22, -0.27, 0.16, 0.18, 0.26, -0.20, -0.24, 0.0, 0.0, 0.0, 0.0;
+  Pose at = Pose::Identity();
+  at(2, 3) = Z;
+  Target t(quad, at);
+  t.add(PbvsSource(PbvsTarget::desired_camera));
+  Task task;
+  task.add(PbvsFeature(PbvsTarget::desired_camera));
+  const Pose start = make_pose(0.1, -0.05, -0.3, 0.05, -0.08, 0.6);
+  ServoOptions gain1;
+  gain1.gain = 1.0;
+  struct Case {
+    double s, du, dv;
+  };
+  for (const Case c : {Case{0.8, 0, 0}, Case{1.25, 0, 0}, Case{1.0, 24, -16}}) {
+    for (GoalPose gp : {GoalPose::taught, GoalPose::given}) {
+      EpisodeOptions o = opts(30, 1e-6);
+      o.depth = DepthMode::pose;
+      o.goal_pose = gp;
+      Episode e(Servo(task, gain1), cam, t, o);
+      e.set_sensor(std::make_shared<BelievedPinhole>(320, 320, c.s, c.du, c.dv));
+      const EpisodeResult& r = e.run(start, Pose::Identity());
+      const std::string what = "s " + std::to_string(c.s) + " d (" + std::to_string(c.du) + ", " +
+                               std::to_string(c.dv) + ") " + to_string(gp) + ": " + to_string(r.status.outcome);
+      ibvs_test::report(r.status.outcome == Outcome::converged, "PBVS converges with a wrong camera model", __FILE__,
+                        __LINE__, what);
+      const Eigen::Vector3d p = row_pose(r.history, r.history.frames - 1).topRightCorner<3, 1>();
+      // Where it stops: the error norm's tolerance (1e-6, m and rad) leaves the estimate within 1e-6 m of
+      // its goal, i.e. the camera within 1e-6 / s <= 1.25 um in depth and 1e-6 rad x Z* = 3 um sideways
+      // of the predicted pose: 20 um covers both with margin.
+      const Eigen::Vector3d want = gp == GoalPose::taught
+                                       ? Eigen::Vector3d::Zero()
+                                       : Eigen::Vector3d(-Z * c.du / f, -Z * c.dv / f, -Z * (1.0 / c.s - 1.0));
+      ibvs_test::report((p - want).norm() < 2e-5, "PBVS ends at the goal (taught) or where the estimate is the goal (given)",
+                        __FILE__, __LINE__,
+                        what + " at (" + std::to_string(p(0)) + ", " + std::to_string(p(1)) + ", " +
+                            std::to_string(p(2)) + ")");
+      CHECK(r.metrics.final_rotation_error < 1e-5);
+    }
+  }
+  // The exact depth mode: the same run, taught or given.
+  EpisodeOptions o = opts(30, 1e-6);
+  Episode taught(Servo(task, gain1), cam, t, o);
+  taught.set_sensor(std::make_shared<BelievedPinhole>(320, 320, 0.8, 0, 0));
+  o.goal_pose = GoalPose::given;
+  Episode given(Servo(task, gain1), cam, t, o);
+  given.set_sensor(std::make_shared<BelievedPinhole>(320, 320, 0.8, 0, 0));
+  const EpisodeResult& a = taught.run(start, Pose::Identity());
+  const EpisodeResult& b = given.run(start, Pose::Identity());
+  CHECK(a.status.outcome == Outcome::converged && a.history.frames == b.history.frames);
+  CHECK(a.history.pose.topRows(a.history.frames) == b.history.pose.topRows(b.history.frames));
+  CHECK(a.metrics.final_translation_error < 1e-5);
 }
 
 }  // namespace
@@ -316,4 +433,5 @@ void run_tests() {
   bad_set_ups_refused();
   fit_pose_recovers();
   sources_aim_at_the_goal_as_known();
+  given_goal_pose_keeps_the_calibration_bias();
 }

@@ -50,6 +50,7 @@ def _bad(tmp_path) -> list:
         (["run", "--animate", str(d / "missing" / "run.gif")], "--animate"),
         (["run", "--speed", "0"], "--speed"),
         (["run", "--depth", "guess"], "--depth"),
+        (["run", "--goal-pose", "measured"], "--goal-pose"),
         (["sweep", "--out", str(d / "sub")], "--out"),
         (["sweep", "--out", str(d / "missing" / "s.csv")], "--out"),
         (["sweep", "--out", str(d / "file.txt")], "out"),  # not an ibvs sweep file
@@ -69,6 +70,7 @@ def _bad(tmp_path) -> list:
         (["sweep", "--out", out, "--scenario", str(d / "bad.toml")], "[camera]"),
         (["sweep", "--out", out, "--scenario", str(EXAMPLE), "--world", "free"], "--world"),
         (["sweep", "--out", out, "--scenario", str(EXAMPLE), "--depth", "pose"], "planar"),
+        (["sweep", "--out", out, "--goal-pose", "Given"], "--goal-pose"),
         (["sweep", "--out", out, "--figure", str(d / "missing" / "f.png")], "--figure"),
         (["sweep", "--out", out, "--schemes", "spherical"], "--schemes"),
         (["sweep", "--out", out, "--scheduler", "no-port"], "scheduler"),

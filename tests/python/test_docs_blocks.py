@@ -140,6 +140,8 @@ PRINTS = {
     ("docs/arms.md", "for projector in (None"): ["no avoidance: joint_limit", "classical: joint_limit",
                                                   "large: converged"],
     ("docs/arms.md", "ibvs.SecondaryTask(7, projector"): ["active=1", "d|e|^2/dt changed by"],
+    ("docs/simulator.md", "goal_pose=goal_pose)"): ["taught: converged, 0.0 mm from the goal",
+                                                     "given: converged, 750.0 mm from the goal, z = -750.0 mm"],
     ("docs/simulator.md", "sim.LineSource(i, (i + 1) % 4)"): ["lines          converged at frame 368",
                                                                 "points + lines converged at frame 369"],
     ("docs/simulator.md", "sim.SegmentSource(0, 4), sim.SegmentSource(2, 6)"): [

@@ -193,6 +193,21 @@ def test_sim_run_arguments_finite_or_refused(name, value):
     assert np.isfinite(r.history.twist).all() and np.isfinite(r.metrics.path_length), (name, value)
 
 
+@settings(max_examples=40)
+@given(st.one_of(st.text(max_size=8), RUN_NUMBER, st.sampled_from(["taught", "given", "Taught", " given", b"given"])))
+def test_sim_run_goal_pose_taught_given_or_refused(value):
+    """sim.run's goal_pose: "taught" or "given" run; anything else is refused by name (ValueError for another
+    string, TypeError for another type)."""
+    try:
+        r = sim.run(SERVO, CASE.camera, CASE.target, CASE.start, CASE.goal, duration=0.1, goal_pose=value)
+    except (ValueError, TypeError) as e:
+        assert "goal_pose" in str(e), (value, e)
+        assert value not in ("taught", "given"), (value, e)
+        assert isinstance(e, ValueError) == isinstance(value, str), (value, e)
+        return
+    assert value in ("taught", "given") and np.isfinite(r.history.twist).all(), value
+
+
 GANTRY = sim.cases.gantry_general_motion().robot
 
 
@@ -254,11 +269,13 @@ ARGUMENT = st.one_of(st.integers(-2, 6), st.none(), st.floats(allow_nan=True, wi
 
 @settings(max_examples=80)
 @given(st.sampled_from(["moments", "pbvs", "2.5d"]), ARGUMENT, hnp.arrays(np.float64, 6, elements=ENTRY),
-       st.sampled_from(["exact", "pose", "estimated", "desired"]), st.floats(1e-3, 1e3))
-def test_pose_and_moments_sources_finite_or_refused(kind, arg, twist, depth, scale):
+       st.sampled_from(["exact", "pose", "estimated", "desired"]), st.floats(1e-3, 1e3),
+       st.sampled_from(["taught", "given"]))
+def test_pose_and_moments_sources_finite_or_refused(kind, arg, twist, depth, scale, goal_pose):
     """sim.MomentsSource / PbvsSource / Point25DSource of any argument on the compared (asymmetric) target,
-    then a short episode of its task from any start, any depth mode and scale: refused with ValueError /
-    TypeError naming the argument, or finite measurements and errors, ending in one of the outcomes."""
+    then a short episode of its task from any start, any depth mode and scale, the goal taught or given: refused
+    with ValueError / TypeError naming the argument, or finite measurements and errors, ending in one of the
+    outcomes."""
     from ibvs.study import compare
 
     make = {"moments": (sim.MomentsSource, ibvs.MomentsFeature, "source"),
@@ -276,7 +293,7 @@ def test_pose_and_moments_sources_finite_or_refused(kind, arg, twist, depth, sca
     try:
         r = sim.run(ibvs.Servo(ibvs.Task().add(block), gain=1.0), sim.Camera.normalized(0.3),
                     target, ibvs.se3_exp(twist) @ np.eye(4), np.eye(4), duration=0.1, depth=depth,
-                    depth_scale=scale, stop_on_singular=False)
+                    depth_scale=scale, stop_on_singular=False, goal_pose=goal_pose)
     except ValueError as e:
         assert refused_by_name(e, "start", "goal"), e
         return

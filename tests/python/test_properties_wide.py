@@ -107,3 +107,23 @@ def test_wide_study_runs_finite_or_refused(rotation, translation, scheme, junk):
         wide.run(scheme, junk, duration=0.2)
     except ValueError as e:
         assert "start" in str(e)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.one_of(st.floats(80.0, 310.0), ENTRY), hnp.arrays(np.float64, 3, elements=st.floats(-2.0, 2.0)))
+def test_wide_study_lens_of_any_fov_finite_or_refused(fov, rotation):
+    """ibvs.study.wide's lens of full field of view fov: in [90, 300] degrees a camera whose image circle is
+    fov/2 off the axis and a run with finite metrics from any start; otherwise ValueError naming fov."""
+    import math
+
+    from ibvs.study import wide
+
+    try:
+        cam = wide.camera(fov)
+    except ValueError as e:
+        assert "fov" in str(e) and not 90.0 <= fov <= 300.0
+        return
+    assert 90.0 <= fov <= 300.0
+    assert abs(cam.px * math.radians(fov / 2) - wide.SENSOR / 2) < 1e-9
+    o, _ = wide.run("spherical", ibvs.se3_exp(np.r_[0.0, 0.0, 0.0, rotation]), cam, duration=0.1)
+    assert np.isfinite([o.camera_retreat, o.path_length, o.final_translation_error]).all()

@@ -3,6 +3,7 @@
 import csv
 import pickle
 
+import numpy as np
 import pytest
 
 import ibvs
@@ -206,6 +207,25 @@ def test_angle_wrap_option():
         sw.sweep(None, angle_wrap="both", **kw)
 
 
+def test_goal_pose_option():
+    """The sweep's goal_pose reaches every PBVS episode and is part of the config only when given (a taught sweep's
+    config is the one it had before the option). With the pose depth mode the estimate's translation is times
+    depth_scale k: a taught goal is scaled alike and PBVS reaches it; a given one is not, and PBVS stops where k t =
+    t*, |t*| |1/k - 1| from the goal (the rotation estimate is unscaled)."""
+    kw = dict(jobs=1, schemes=["pbvs"], grid={"depth_scale": [1.25]}, depth="pose", duration=20.0, progress=False)
+    default = sw.sweep(None, **kw)
+    taught, given = (sw.sweep(None, goal_pose=g, **kw) for g in ("taught", "given"))
+    assert default == taught and taught[0]["config"] != given[0]["config"]
+    assert taught[0]["outcome"] == given[0]["outcome"] == "converged"
+    setup = sw.resolve(world="free")[0]
+    t_star = np.linalg.norm((np.linalg.inv(setup.goal_pose()) @ np.asarray(setup.target.pose))[:3, 3])
+    assert taught[0]["final_translation_error"] < 1e-4
+    # the error norm's tolerance (1e-5 m and rad) leaves k t within 1e-5 of t*: 1e-4 m covers it
+    assert given[0]["final_translation_error"] == pytest.approx(t_star * abs(1 / 1.25 - 1), abs=1e-4)
+    with pytest.raises(ValueError, match="goal_pose"):
+        sw.sweep(None, goal_pose="measured", **kw)
+
+
 def test_angle_wrap_in_a_scenario_file(tmp_path):
     """angle_wrap is a [control] key of scenario files; a bad value is refused naming it."""
     from pathlib import Path
@@ -220,4 +240,13 @@ def test_angle_wrap_in_a_scenario_file(tmp_path):
             assert scenario.load(path)[0].angle_wrap == "per_point"
         else:
             with pytest.raises(ValueError, match="angle_wrap"):
+                scenario.load(path)
+    # goal_pose likewise
+    for value, ok in (("given", True), ("measured", False)):
+        path = tmp_path / f"{value}.toml"
+        path.write_text(text.replace("[control]\n", f'[control]\ngoal_pose = "{value}"\n'))
+        if ok:
+            assert scenario.load(path)[0].goal_pose_mode == "given"
+        else:
+            with pytest.raises(ValueError, match="goal_pose"):
                 scenario.load(path)

@@ -69,6 +69,68 @@ def test_the_lens_sees_110_degrees_off_the_axis():
     assert edge[0] == pytest.approx(wide.SENSOR, abs=1e-9) and edge[1] == pytest.approx(wide.SENSOR / 2)
 
 
+def test_the_default_lens_is_the_220_degree_one():
+    """fov's default is the study's 220-degree lens: the camera written apart (f = 512 px / 110 degrees, centred),
+    and the same rows as the study run with fov=220 and with that camera."""
+    K, D = wide.camera().to_opencv()[:2]
+    f = (wide.SENSOR / 2) / math.radians(110.0)
+    np.testing.assert_array_equal(K, [[f, 0, 512], [0, f, 512], [0, 0, 1]])
+    assert wide.FOV == 220.0 and wide.HALF_FOV == math.radians(110.0)
+    few = ("polar", "spherical")
+    rows = wide.study(rotations=2, general=3, seed=1, schemes_=few)
+    assert repr(rows) == repr(wide.study(rotations=2, general=3, seed=1, schemes_=few, fov=220))
+    cam = ibvs.CameraModel.from_opencv(K, [0.0] * 4, 1024, 1024, fisheye=True, fps=wide.FPS)
+    apart = [wide.summarise(st, label, s, T0, wide.run(s, T0, cam)[0]) for st, label, T0 in wide.starts(2, 3, 1)
+             for s in few]
+    assert repr(rows) == repr(apart)
+
+
+@pytest.mark.parametrize("fov", [180.0, 260.0, 90.0])
+def test_fov_sets_the_lens_image_circle(fov):
+    """camera(fov): the directions fov/2 off the axis image onto the sensor's edges (the circle inscribed),
+    those a little beyond it outside the sensor; the random starts keep every point inside that circle; the
+    page names the lens."""
+    cam, half = wide.camera(fov), math.radians(fov / 2)
+    S = wide.SENSOR
+    assert cam.px == pytest.approx((S / 2) / half, rel=1e-12)
+    for phi in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi, 0.3):
+        b = [math.sin(half) * math.cos(phi), math.sin(half) * math.sin(phi), math.cos(half)]
+        u = cam.from_bearing(b)
+        assert np.hypot(u[0] - S / 2, u[1] - S / 2) == pytest.approx(S / 2, abs=1e-9)  # on the inscribed circle
+        a = half + math.radians(1.0)
+        out = cam.from_bearing([math.sin(a) * math.cos(phi), math.sin(a) * math.sin(phi), math.cos(a)])
+        assert np.hypot(out[0] - S / 2, out[1] - S / 2) > S / 2 + 1.0
+    edge = cam.to_bearing([[S, S / 2], [S / 2, 0.0]])
+    np.testing.assert_allclose(np.arccos(edge[:, 2]), half, rtol=0, atol=1e-12)
+    every = wide.starts(2, 40, 0, fov=fov)
+    worst = max(wide.off_axis(wide.in_camera(T, wide.target_points())).max() for st, _, T in every if st == "general")
+    assert worst < half
+    if fov < 220:  # the 220-degree lens's starts include some beyond this one's circle: they are drawn again
+        default = wide.starts(2, 40, 0)
+        assert max(wide.off_axis(wide.in_camera(T, wide.target_points())).max() for _, _, T in default) > half
+        assert [lab for _, lab, _ in every] != [lab for _, lab, _ in default]
+    rows = wide.study(rotations=2, general=0, schemes_=("spherical",), fov=fov)
+    text = " ".join(wide.page(rows, [], 2, 0, 0, 1.0, fov=fov).split())
+    assert f"on a {fov:g}° fisheye" in text and f"{fov / 2:g}° off the axis (a {fov:g}° lens)" in text
+
+
+def test_fov_outside_its_range_is_refused(tmp_path, capsys):
+    for bad in (89.0, 301.0, math.nan, math.inf, "220", True, None):
+        with pytest.raises(ValueError, match=r"fov must be a number of degrees in \[90, 300\]"):
+            wide.camera(bad)
+    with pytest.raises(ValueError, match="fov"):
+        wide.study(rotations=2, general=0, fov=400.0)
+    with pytest.raises(ValueError, match="fov"):
+        wide.starts(2, 1, 0, fov=0.0)
+    for text in ("400", "nan", "wide", "-220"):
+        with pytest.raises(SystemExit) as e:
+            wide.main(["--out", str(tmp_path / "w"), "--fov", text])
+        assert e.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--fov" in err[0] and "error" in err[0]
+    assert not (tmp_path / "w").exists()  # refused before any work
+
+
 def _outside_perspective(T_wc: np.ndarray) -> bool:
     """Written apart from ibvs.study.wide: some corner of the square behind the image plane, or with
     |X| or |Y| over ten times its depth."""

@@ -42,6 +42,14 @@ const char* to_string(DepthMode d) noexcept {
   return "unknown";
 }
 
+const char* to_string(GoalPose g) noexcept {
+  switch (g) {
+    case GoalPose::taught: return "taught";
+    case GoalPose::given: return "given";
+  }
+  return "unknown";
+}
+
 void EpisodeOptions::validate() const {
   const auto fail = [](const std::string& s) { throw std::invalid_argument("ibvs: " + s); };
   if (!(duration > 0.0) || !std::isfinite(duration)) fail("duration must be finite and > 0");
@@ -61,6 +69,7 @@ void EpisodeOptions::validate() const {
   if (!(boundary_margin >= 0.0) || !std::isfinite(boundary_margin)) fail("boundary_margin must be finite and >= 0");
   if (!(boundary_gain >= 0.0) || !std::isfinite(boundary_gain)) fail("boundary_gain must be finite and >= 0");
   if (!(standoff_ratio >= 0.0) || !std::isfinite(standoff_ratio)) fail("standoff_ratio must be finite and >= 0");
+  if (goal_pose != GoalPose::taught && goal_pose != GoalPose::given) fail("goal_pose must be taught or given");
   if (keep_lost && depth != DepthMode::exact && depth != DepthMode::desired)
     fail("keep_lost needs depth exact or desired (the pose and estimated depths need every point)");
 }

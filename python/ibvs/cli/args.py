@@ -194,6 +194,8 @@ def require(prog: str, module: str, what: str) -> None:
 NOISE_HELP = ("std of the Gaussian noise added to the measured image points, in the camera's measurement units: "
               "pixels for a pixel camera (gantry), normalised image units (1 = the focal length) for the free "
               "world's normalised camera (default 0)")
+GOAL_POSE_HELP = ("goal pose of the PBVS, 2.5-D and moments schemes: taught (estimated from the goal's image as the "
+                  "depth mode knows it) or given (the true one)")
 DEPTH_HELP = ("depth the controller is given: exact (true depths), pose (from a planar pose estimate), desired "
               "(the constant goal depths) or estimated (online, per point, from the camera's motion)")
 TOLERANCE_HELP = ("converged when the servo's feature-error norm is below this (normalised units; default 1e-5, "

@@ -62,6 +62,8 @@ def add_parser(sub) -> None:
     one.add_argument("--duration", type=a.number(0, 3600, open_lo=True), metavar="SECONDS",
                      help="episode length in seconds, at most 3600 (default per world)")
     one.add_argument("--depth", choices=["exact", "pose", "desired", "estimated"], help=a.DEPTH_HELP)
+    one.add_argument("--goal-pose", choices=["taught", "given"], default="taught",
+                     help=a.GOAL_POSE_HELP + " (default taught)")
     one.add_argument("--tolerance", type=a.number(0, 1e6), help=a.TOLERANCE_HELP)
     one.add_argument("--tolerance-px", type=a.number(0, 1e6, open_lo=True), metavar="PX", help=a.TOLERANCE_PX_HELP)
     a.add_angle_wrap(one, "consistent")
@@ -123,11 +125,12 @@ def command(args) -> int:
                                          latency=args.latency, seed=args.seed, gain=args.gain, depth=args.depth,
                                          tolerance=a.tolerance_of(args), tolerance_px=args.tolerance_px,
                                          case_object=c, angle_wrap=args.angle_wrap, vision=sensor,
-                                         record=args.record)
+                                         record=args.record, goal_pose=args.goal_pose)
     row = reproduce.summarise(args.world, case, args.scheme, result, args.angle_wrap)
     from ..study.schemes import TITLES
 
     wrap = "" if row.angle_wrap == "-" else f", {row.angle_wrap} wrap"
+    wrap += ", goal pose given" if args.goal_pose == "given" else ""
     title = f"{case_obj.description}, {TITLES.get(args.scheme, args.scheme)}{wrap}"
     print(title)
     lines = row.report()

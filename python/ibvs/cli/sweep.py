@@ -87,6 +87,8 @@ def add_parser(sub) -> None:
                    help="image-boundary potential margin (measurement units; 0 = off)")
     w.add_argument("--boundary-gain", type=a.number(0, 1e6), help="image-boundary potential gain")
     a.add_angle_wrap(w, None)
+    w.add_argument("--goal-pose", choices=["taught", "given"],
+                   help=a.GOAL_POSE_HELP + " (default per scenario: taught)")
     w.add_argument("--jobs", type=a.number(1, MAX_JOBS, integer=True), help="local worker processes (default: cores)")
     w.add_argument("--batch", type=a.number(1, MAX_EPISODES, integer=True), help="episodes per task")
     w.add_argument("--scheduler", metavar="ADDRESS",
@@ -128,7 +130,7 @@ def command(args) -> int:
         a.fail(prog, "--range and --grid cannot be combined")
     settings = dict(gain=args.gain, duration=args.duration, depth=args.depth, tolerance=args.tolerance,
                     tolerance_px=args.tolerance_px, boundary_margin=args.boundary_margin, boundary_gain=args.boundary_gain,
-                    angle_wrap=args.angle_wrap)
+                    angle_wrap=args.angle_wrap, goal_pose_mode=args.goal_pose)
     try:  # everything is checked here, before any episode runs
         setup, options = sw.resolve(args.scenario, world=args.world, ranges=dict(args.range) or None, **settings)
         schemes = args.schemes or options.get("schemes")

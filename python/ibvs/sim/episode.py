@@ -98,6 +98,7 @@ def run(
     vision=None,
     record=None,
     keep_lost: bool = False,
+    goal_pose: str = "taught",
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -137,7 +138,16 @@ def run(
         planar pose estimate, or the target's points fitted to the estimated points. The goal
         of PBVS, 2.5-D and moments blocks is the goal as the depth mode knows it there (teach by
         showing): the true one for "exact" and "desired", the planar pose estimate of the goal's
-        image for "pose", the fit at the prior depths depth_scale * z* for "estimated".
+        image for "pose", the fit at the prior depths depth_scale * z* for "estimated" (goal_pose).
+    goal_pose: the goal pose c*Mo of the PBVS, 2.5-D and moments blocks: "taught" (default: as the depth
+        mode knew it at the goal, above) or "given" (the goal's true camera <- target pose whatever the
+        depth mode, not times depth_scale: a goal pose measured and given, e.g. "0.5 m in front of the
+        tag", while the current pose is still the depth mode's). The same for "exact" and "desired". With
+        a wrong camera model (MiscalibratedCamera) and depth="pose" a taught goal carries the current
+        estimate's bias, which cancels (PBVS ends at the goal); a given one does not: PBVS ends where the
+        estimate equals it (focal length s times the true one: Z*·|1/s − 1| along the axis; principal point
+        off by d px: Z*·d/f sideways; docs/compare.md). 2.5-D's x*, y*, Z* and the moments' desired image
+        stay the goal image's.
     depth_scale: in [1e-3, 1e3], multiplies the depth given to the controller (a depth calibration
         error; 1 = none). With depth="estimated" it scales the initial guess only.
     seed: seed of the noise generator (std::mt19937_64).
@@ -205,6 +215,10 @@ def run(
         from ..ros.recorder import Recording
 
         recording = Recording(record, vision)
+    if not isinstance(goal_pose, str):
+        raise TypeError(f"goal_pose must be 'taught' or 'given', got {type(goal_pose).__name__}")
+    if goal_pose not in ("taught", "given"):
+        raise ValueError(f"goal_pose must be 'taught' or 'given', got {goal_pose!r}")
     if tolerance_px is not None:
         tolerance_px = _real(tolerance_px, "tolerance_px")
         if not (math.isfinite(tolerance_px) and tolerance_px > 0):
@@ -239,6 +253,7 @@ def run(
         standoff_ratio=_real(standoff_ratio, "standoff_ratio"),
         sensor=vision if recording is None else recording.sensor,
         keep_lost=_bool(keep_lost, "keep_lost"),
+        goal_pose=goal_pose,
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"], d["feature"])
     history = History(

@@ -215,13 +215,13 @@ def make_case(world: str, case: str):
 def run_one(world: str, case: str, scheme: str, *, duration: float | None = None, noise: float = 0.0,
             latency: int = 0, seed: int = 0, gain: float | None = None, depth: str | None = None,
             tolerance: float | None = TOLERANCE, tolerance_px: float | None = None, case_object=None,
-            angle_wrap: str = "consistent", vision=None, record=None):
+            angle_wrap: str = "consistent", vision=None, record=None, goal_pose: str = "taught"):
     """Simulate one (world, case, scheme) (scheme: any name in ibvs.study.schemes.SCHEMES); returns
     (case object, sim.Result). case_object replaces the named case (e.g. another angle);
     angle_wrap is set on the scheme's ibvs.Servo. tolerance, tolerance_px: as in ibvs.sim.run
     (tolerance None: no error-norm test, only the pixel one). vision: None, or an ibvs.sim.Sensor
     for an image episode (its renderer's camera replaces the case's: ibvs.vision.image_camera gives
-    a normalised case a 640x480 one)."""
+    a normalised case a 640x480 one). goal_pose: as in ibvs.sim.run."""
     if angle_wrap not in ANGLE_WRAPS:
         raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
     c = case_object if case_object is not None else make_case(world, case)
@@ -233,7 +233,7 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
     result = sim.run(servo, camera, target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
                      depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance,
-                     tolerance_px=tolerance_px, vision=vision, record=record)
+                     tolerance_px=tolerance_px, vision=vision, record=record, goal_pose=goal_pose)
     return c, result
 
 

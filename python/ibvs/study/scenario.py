@@ -55,7 +55,7 @@ from .. import sim
 from ..sim.poses import rotation_matrix
 from ..sim.result import measurement_unit
 
-__all__ = ["ANGLE_WRAPS", "DEPTH_MODES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
+__all__ = ["ANGLE_WRAPS", "DEPTH_MODES", "GOAL_POSES", "LIMITS", "PARAMETERS", "ROBOTS", "Scenario", "builtin", "load"]
 
 #: The parameters of an episode's start set-up, in the order they are drawn.
 PARAMETERS = ("rz_deg", "tilt_deg", "tilt_dir_deg", "tx", "ty", "tz", "noise", "depth_scale", "latency")
@@ -70,6 +70,8 @@ LIMITS = {"rz_deg": (-360.0, 360.0), "tilt_deg": (0.0, 180.0), "tilt_dir_deg": (
 DEPTH_MODES = ("exact", "pose", "desired", "estimated")
 #: The angle wraps of ibvs.Servo (its angle_wrap option).
 ANGLE_WRAPS = ("consistent", "per_point")
+#: The goal pose of the PBVS, 2.5-D and moments blocks (ibvs.sim.run's goal_pose).
+GOAL_POSES = ("taught", "given")
 #: The error-norm tolerance of a scenario that sets neither tolerance nor tolerance_px.
 DEFAULT_TOLERANCE = 1e-5
 #: Longest episode (s) and largest gain (1/s) a scenario may ask for.
@@ -137,7 +139,10 @@ def _callable_name(f) -> str:
     """A stable name of a start callable, for the config hash."""
     if isinstance(f, functools.partial):
         return f"partial({_callable_name(f.func)}, {f.args!r}, {sorted(f.keywords.items())!r})"
-    return f"{getattr(f, '__module__', '?')}.{getattr(f, '__qualname__', repr(f))}"
+    name = getattr(f, "__qualname__", None) or getattr(f, "__name__", None)
+    if name is None:  # an instance with __call__: its class (its repr may hold its address, new in every process)
+        return f"{type(f).__module__}.{type(f).__qualname__}()"
+    return f"{getattr(f, '__module__', '?')}.{name}"
 
 
 def _canonical(x):
@@ -154,6 +159,14 @@ def _canonical(x):
         return [_canonical(v) for v in x]
     if isinstance(x, (types.FunctionType, types.BuiltinFunctionType, types.MethodType, functools.partial, type)):
         return _callable_name(x)
+    if type(x).__module__.startswith("ibvs") and type(x).__reduce__ is not object.__reduce__:
+        # native objects that pickle as their constructor's arguments (the feature kinds, FunctionSource):
+        # those arguments (their repr may round or leave some out)
+        try:
+            return [type(x).__name__, _canonical(x.__reduce__()[1])]
+        except TypeError:  # its callable does not pickle (FunctionSource, FunctionFeature): the callable's name
+            fn = getattr(x, "measure", None) or getattr(x, "fn", None)
+            return [type(x).__name__, repr(x), _callable_name(fn)]
     if isinstance(x, sim.UrdfRobot):  # its URDF's content, not where it lies; not its Pinocchio objects
         return ["UrdfRobot", _canonical(x.fingerprint())]
     try:  # native objects (Camera, Target, Gantry) through their pickle state
@@ -183,6 +196,9 @@ class Scenario:
         given (tolerances() gives the pair a run uses).
     angle_wrap: ANGLE_WRAPS, set on every ibvs.Servo a scheme builds ("consistent": the theta
         errors of a frame wrapped as one rotation; "per_point": eq. 13 point by point).
+    goal_pose_mode: GOAL_POSES, ibvs.sim.run's goal_pose (the key goal_pose of a scenario file's
+        [control]): the goal pose of the schemes' PBVS, 2.5-D and moments blocks taught from the goal's
+        image as the depth mode knows it, or given (the true one).
     """
 
     camera: Any
@@ -201,6 +217,7 @@ class Scenario:
     boundary_gain: float = 0.1
     angle_wrap: str = "consistent"
     tolerance_px: Optional[float] = None
+    goal_pose_mode: str = "taught"
 
     def tolerances(self) -> tuple[Optional[float], Optional[float]]:
         """(tolerance, tolerance_px) of ibvs.sim.run: tolerance is DEFAULT_TOLERANCE when neither is set."""
@@ -217,8 +234,11 @@ class Scenario:
         return " and ".join(parts)
 
     def replace(self, **changes) -> "Scenario":
-        """A copy with some fields changed (None values are ignored); ranges are merged."""
+        """A copy with some fields changed (None values are ignored); ranges are merged. goal_pose= is
+        goal_pose_mode= (the name sim.run, sweep() and scenario files use; goal_pose() is the goal's pose)."""
         changes = {k: v for k, v in changes.items() if v is not None}
+        if "goal_pose" in changes:
+            changes["goal_pose_mode"] = changes.pop("goal_pose")
         if "ranges" in changes:
             changes["ranges"] = {**self.ranges, **changes["ranges"]}
         return dataclasses.replace(self, **changes)
@@ -266,6 +286,8 @@ class Scenario:
             raise ValueError(f"depth must be one of {', '.join(DEPTH_MODES)}, got {self.depth!r}")
         if self.angle_wrap not in ANGLE_WRAPS:
             raise ValueError(f"angle_wrap must be one of {', '.join(ANGLE_WRAPS)}, got {self.angle_wrap!r}")
+        if not isinstance(self.goal_pose_mode, str) or self.goal_pose_mode not in GOAL_POSES:
+            raise ValueError(f"goal_pose must be one of {', '.join(GOAL_POSES)}, got {self.goal_pose_mode!r}")
         if self.depth == "pose" and not self.target.planar:
             raise ValueError('depth: "pose" needs a planar target (a pose estimate of coplanar points)')
         hi_latency = self.ranges.get("latency", (0, 0))[1]
@@ -356,6 +378,8 @@ class Scenario:
                "boundary_gain": float(self.boundary_gain), "angle_wrap": self.angle_wrap}
         if px is not None:  # only then: the config hash of every sweep without it stays as it was
             out["tolerance_px"] = float(px)
+        if self.goal_pose_mode != "taught":  # likewise
+            out["goal_pose"] = self.goal_pose_mode
         return out
 
     def key(self) -> str:
@@ -599,8 +623,10 @@ def load(path) -> tuple[Scenario, dict]:
         ranges[k] = tuple(v) if isinstance(v, list) else v
     control = dict(doc.get("control", {}))
     fields = ("gain", "duration", "depth", "tolerance", "tolerance_px", "boundary_margin", "boundary_gain",
-              "angle_wrap")
+              "angle_wrap", "goal_pose")
     _keys(control, fields, f"{where} [control]")
+    if "goal_pose" in control:  # the Scenario's goal_pose_mode (its goal_pose() is the goal's 4x4 pose)
+        control["goal_pose_mode"] = control.pop("goal_pose")
     name = doc.get("name", path.stem)
     try:
         scenario = Scenario(camera, target, goal, robot=robot, name=name, ranges=ranges, translation=translation,

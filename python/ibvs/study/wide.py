@@ -2,12 +2,12 @@
 (normalised image points: Cartesian, polar, polar with per-point angle wraps, stacked) and on features
 on the sphere (spherical Cartesian, spherical-polar, both stacked), on the same free-camera starts.
 
-    python -m ibvs.study.wide --out DIR [--rotations 19] [--general 200] [--docs]
+    python -m ibvs.study.wide --out DIR [--rotations 19] [--general 200] [--fov 220] [--docs]
     ibvs wide --out DIR ...
 
 Camera: an equidistant fisheye without distortion whose image circle (110 degrees off the axis, a
-220-degree lens) fills a square sensor; the paper's square target (+-0.25 m, 3 m in front of the goal
-camera). Every scheme measures the target's pixels through the lens model: the perspective schemes
+220-degree lens; --fov, camera(fov) and study(fov=...) choose another full field of view) fills a
+square sensor; the paper's square target (+-0.25 m, 3 m in front of the goal camera). Every scheme measures the target's pixels through the lens model: the perspective schemes
 normalise them (CameraModel.normalize: x = X/Z, which exists only in front of the camera, below 90
 degrees off the axis), the spherical ones lift them to bearings (ibvs.spherical_measurements).
 
@@ -27,7 +27,6 @@ point outside its domain is not run ("cannot_see").
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from dataclasses import dataclass
@@ -43,14 +42,17 @@ from . import output, schemes
 from .compare import wrap
 from .scenario import DEFAULTS, offset
 
-__all__ = ["ANGLE_BINS", "DURATION", "FPS", "GAIN", "HALF_FOV", "NAMES", "PERSPECTIVE", "PERSPECTIVE_LIMIT",
-           "PINHOLE_HALF_FOV", "RANGES", "REACHED", "SCHEMES", "SENSOR", "SPHERICAL", "TOLERANCE", "Outcome", "Row",
-           "Trace", "angle_table", "camera", "cannot_see", "case_table", "figures", "findings", "in_camera", "main",
+__all__ = ["ANGLE_BINS", "DURATION", "FOV", "FOV_LIMITS", "FPS", "GAIN", "HALF_FOV", "NAMES", "PERSPECTIVE",
+           "PERSPECTIVE_LIMIT", "PINHOLE_HALF_FOV", "RANGES", "REACHED", "SCHEMES", "SENSOR", "SPHERICAL", "TOLERANCE",
+           "Outcome", "Row", "Trace", "angle_table", "camera", "cannot_see", "check_fov", "case_table", "figures", "findings", "in_camera", "main",
            "make", "off_axis", "page", "perspective_sees", "run", "sample", "sim_target", "simulate", "start_pose",
            "starts", "starts_table", "study", "summarise", "summary", "table", "target_points"]
 
-#: The lens's half field of view (radians): its image circle.
-HALF_FOV = math.radians(110.0)
+#: The lens's full field of view (degrees) by default, and the range --fov / fov= accept.
+FOV = 220.0
+FOV_LIMITS = (90.0, 300.0)
+#: The default lens's half field of view (radians): its image circle.
+HALF_FOV = math.radians(FOV / 2)
 #: The square sensor's side (pixels); the image circle touches its sides.
 SENSOR = 1024
 
@@ -88,10 +90,20 @@ NAMES = {"cartesian": "IBVS (x, y)", "polar": "IBVS-P (r, θ)", "polar_per_point
 OUT_OF_VIEW = ("left_image", "left_perspective", "behind_camera", "lost_feature")
 
 
-def camera() -> ibvs.CameraModel:
-    """The study's lens: equidistant (r = f theta), no distortion, the 110-degree circle inscribed in a
-    SENSOR x SENSOR image."""
-    f = (SENSOR / 2) / HALF_FOV
+def check_fov(fov) -> float:
+    """fov (the lens's full field of view, degrees) as a float, or a ValueError naming it."""
+    lo, hi = FOV_LIMITS
+    if isinstance(fov, bool) or not isinstance(fov, (int, float, np.integer, np.floating)) \
+            or not (math.isfinite(fov) and lo <= fov <= hi):
+        raise ValueError(f"fov must be a number of degrees in [{lo:g}, {hi:g}] (the lens's full field of view), "
+                         f"got {fov!r}")
+    return float(fov)
+
+
+def camera(fov: float = FOV) -> ibvs.CameraModel:
+    """The study's lens: equidistant (r = f theta), no distortion, the circle fov/2 degrees off the axis
+    (default 110: a 220-degree lens) inscribed in a SENSOR x SENSOR image."""
+    f = (SENSOR / 2) / math.radians(check_fov(fov) / 2)
     c = SENSOR / 2
     return ibvs.CameraModel.from_opencv(np.array([[f, 0.0, c], [0.0, f, c], [0.0, 0.0, 1.0]]), [0.0] * 4, SENSOR,
                                         SENSOR, fisheye=True, fps=FPS)
@@ -307,9 +319,11 @@ def start_pose(p: dict) -> np.ndarray:
     return T
 
 
-def starts(rotations: int = 19, general: int = 200, seed: int = 0) -> list[tuple[str, str, np.ndarray]]:
+def starts(rotations: int = 19, general: int = 200, seed: int = 0,
+           fov: float = FOV) -> list[tuple[str, str, np.ndarray]]:
     """(study, label, start pose) of every run (per scheme); random starts with a point beyond the lens's
-    circle are skipped (no camera sees them)."""
+    circle (fov/2 degrees off the axis) are skipped (no camera sees them)."""
+    half = math.radians(check_fov(fov) / 2)
     out = [("paper", c.name, np.asarray(c.start)) for c in
            (sim.cases.x_translation(), sim.cases.z_rotation(), sim.cases.general_motion())]
     for deg in np.linspace(0.0, 180.0, rotations):
@@ -317,7 +331,7 @@ def starts(rotations: int = 19, general: int = 200, seed: int = 0) -> list[tuple
     k = n = 0
     while n < general:
         T = start_pose(sample(seed, k))
-        if np.all(off_axis(in_camera(T, target_points())) < HALF_FOV):
+        if np.all(off_axis(in_camera(T, target_points())) < half):
             out.append(("general", f"#{k}", T))
             n += 1
         k += 1
@@ -335,11 +349,12 @@ def _centre_angle(T0: np.ndarray) -> float:
 
 
 def study(rotations: int = 19, general: int = 200, seed: int = 0, schemes_: Sequence[str] = SCHEMES,
-          keep: Optional[dict] = None) -> list[Row]:
-    """Every run of the study; keep: a dict filled with {(start label, scheme): Trace} of the traced runs
-    (TRACED and the first random start WIDE_TRACE degrees off the axis)."""
-    cam = camera()
-    every = starts(rotations, general, seed)
+          keep: Optional[dict] = None, fov: float = FOV) -> list[Row]:
+    """Every run of the study with the lens of full field of view fov (degrees); keep: a dict filled with
+    {(start label, scheme): Trace} of the traced runs (TRACED and the first random start WIDE_TRACE degrees
+    off the axis)."""
+    cam = camera(fov)
+    every = starts(rotations, general, seed, fov)
     wide_label = next((lab for st, lab, T0 in every if st == "general" and _centre_angle(T0) >= WIDE_TRACE), None)
     rows = []
     for st, label, T0 in every:
@@ -434,8 +449,8 @@ def angle_table(rows: Sequence[Row]) -> str:
     return "\n".join(lines)
 
 
-def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
-    """Write the figures into out; returns their file names."""
+def figures(rows: Sequence[Row], keep: dict, out: Path, fov: float = FOV) -> list[str]:
+    """Write the figures of the study's rows (its lens: fov degrees) into out; returns their file names."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -485,7 +500,8 @@ def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
     half = [(s, tr) for (lab, s), tr in keep.items() if lab == TRACED]
     wide_runs = [(lab, s, tr) for (lab, s), tr in keep.items() if lab != TRACED and s in SPHERICAL]
     if half:
-        f = (SENSOR / 2) / HALF_FOV
+        lens_deg = check_fov(fov) / 2  # the lens's circle off the axis
+        f = (SENSOR / 2) / math.radians(lens_deg)
         fig, ax = plt.subplots(1, 2, figsize=(11, 4.6))
         for scheme, tr in half:
             t = np.arange(len(tr.pose)) / FPS
@@ -501,9 +517,9 @@ def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
                     ax[1].plot(tr.pixels[:, i, 0], tr.pixels[:, i, 1], color=colour, lw=0.8,
                                label=f"{scheme}: {outcome.replace('_', ' ')}" if i == 0 else None)
                 ax[1].plot(tr.pixels[0, :, 0], tr.pixels[0, :, 1], "o", color=colour, ms=3)
-            goal = camera().from_bearing(in_camera(np.eye(4), target_points()))
+            goal = camera(fov).from_bearing(in_camera(np.eye(4), target_points()))
             ax[1].plot(goal[:, 0], goal[:, 1], "k+")
-            for deg, ls in ((110.0, "-"), (90.0, ":")):
+            for deg, ls in ((lens_deg, "-"), (90.0, ":")):
                 ax[1].add_patch(plt.Circle((SENSOR / 2, SENSOR / 2), f * math.radians(deg), fill=False, ls=ls,
                                            color="grey"))
             r = [x for x in rows if x.start == wide_runs[0][0]][0]
@@ -515,7 +531,7 @@ def figures(rows: Sequence[Row], keep: dict, out: Path) -> list[str]:
         else:
             ax[1].axis("off")
         fig.suptitle("left: distance to the target (cartesian and spherical run off the top); right: the fisheye "
-                     "image (pixels; circles: 90° dotted, the lens's 110° solid)", fontsize=9)
+                     f"image (pixels; circles: 90° dotted, the lens's {lens_deg:g}° solid)", fontsize=9)
         fig.tight_layout()
         names.append("wide_traces.png")
         fig.savefig(out / names[-1], dpi=90)
@@ -678,11 +694,12 @@ def _collisions(rows: Sequence[Row]) -> str:
 
 
 def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, general: int, seed: int,
-         seconds: float) -> str:
-    """docs/wide-study.md."""
-    c = camera()
+         seconds: float, fov: float = FOV) -> str:
+    """docs/wide-study.md (the study's lens: fov degrees)."""
+    fov = check_fov(fov)
+    c = camera(fov)
     parts = [
-        "# Wide field of view: perspective against spherical features on a 220° fisheye",
+        f"# Wide field of view: perspective against spherical features on a {fov:g}° fisheye",
         "",
         "Regenerated by `ibvs wide --out DIR --docs` (or `python -m ibvs.study.wide`), which writes this page and its "
         f"figures: {len(rows)} runs ({len(set(r.scheme for r in rows))} schemes; the paper's three free-camera cases, "
@@ -691,7 +708,7 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
         "[wide.md](wide.md); the laws on a perspective camera: [compare.md](compare.md).",
         "",
         f"**Set-up.** A free-flying camera with an equidistant fisheye, r = f θ, no distortion, f = {c.px:.1f} px, "
-        f"whose image circle, {math.degrees(HALF_FOV):.0f}° off the axis (a 220° lens), is inscribed in a "
+        f"whose image circle, {fov / 2:g}° off the axis (a {fov:g}° lens), is inscribed in a "
         f"{SENSOR} × {SENSOR} sensor; the paper's target (the square (±0.25, ±0.25) m, 3 m in front of the goal "
         "camera); gain 1, damping 0, exact depths, 60 frames/s, 30 s. Every scheme measures the target's pixels "
         "through the lens model: the perspective schemes (`cartesian`, `polar`, `stacked`, the Layouts of "
@@ -764,13 +781,18 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """`ibvs wide`: run the study, write wide.csv, wide-study.md and the figures (and docs/ with --docs)."""
-    p = argparse.ArgumentParser(prog="ibvs wide", description="A 220-degree fisheye servoed on perspective features "
-                                "(Cartesian, polar, stacked) and on features on the sphere (spherical, "
-                                "spherical-polar, stacked), on the paper's cases, rotations and random wide starts.")
+    from ..cli.args import Parser, number  # one-line errors, exit status 2, as every ibvs command's
+
+    p = Parser(prog="ibvs wide", description="A 220-degree fisheye (--fov: another) servoed on perspective features "
+               "(Cartesian, polar, stacked) and on features on the sphere (spherical, spherical-polar, stacked), on "
+               "the paper's cases, rotations and random wide starts.")
     p.add_argument("--out", default="ibvs-wide", help="output directory: wide.csv, wide-study.md, figures")
     p.add_argument("--rotations", type=int, default=19, help="angles about the optical axis from 0 to 180 deg (19)")
     p.add_argument("--general", type=int, default=200, help="random starts, tilted up to 100 deg (200)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--fov", type=number(*FOV_LIMITS), default=FOV, metavar="DEGREES",
+                   help=f"the fisheye's full field of view, degrees in [{FOV_LIMITS[0]:g}, {FOV_LIMITS[1]:g}] "
+                        f"({FOV:g}): its image circle, fov/2 off the axis, inscribed in the sensor")
     p.add_argument("--docs", action="store_true",
                    help="also write docs/wide-study.md and docs/figures/wide_*.png of this repository")
     args = p.parse_args(argv)
@@ -781,10 +803,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     keep: dict = {}
-    rows = study(args.rotations, args.general, args.seed, keep=keep)
+    rows = study(args.rotations, args.general, args.seed, keep=keep, fov=args.fov)
     seconds = time.perf_counter() - t0
-    output.write(rows, out, docs, "wide.csv", "wide-study.md", lambda d: figures(rows, keep, d),
-                 lambda names: page(rows, names, args.rotations, args.general, args.seed, seconds))
+    output.write(rows, out, docs, "wide.csv", "wide-study.md", lambda d: figures(rows, keep, d, args.fov),
+                 lambda names: page(rows, names, args.rotations, args.general, args.seed, seconds, args.fov))
     print(table(rows))
     print(f"{len(rows)} runs in {seconds:.0f} s; written to {out}" + (" and docs/" if args.docs else ""))
     return 0

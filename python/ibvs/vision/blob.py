@@ -30,6 +30,7 @@ depth pose is unknown.
 
 from __future__ import annotations
 
+import hashlib
 from typing import Optional
 
 import numpy as np
@@ -61,6 +62,10 @@ class BlobMeasure:
                 which the tests do not cover)
     Calling it as measure(frame, cMo, depth_pose, goal, uv, depth) renders the blob at cMo and returns the
     block's measurement, or None (lost). image(cMo) and weights(image) give the intermediate steps.
+    It pickles by its arguments (so does the FunctionSource of blob_source, and a Target holding it: a
+    sweep sends it to worker processes): the copy is the BlobMeasure they build, rendering and
+    undistorting anew. Its noise restarts at every episode's goal and start, from the seed and that frame's
+    pose, so an episode's images do not depend on the episodes run before it.
     """
 
     def __init__(self, camera, target, feature: str = "ellipse", **renderer_options):
@@ -68,10 +73,12 @@ class BlobMeasure:
             raise ValueError(f"feature must be one of {BLOB_FEATURES}, got {feature!r}")
         if "exposure" in renderer_options:
             raise ValueError("exposure: a blob source is not given the camera's twist (no motion blur)")
+        self._arguments = dict(camera=camera, target=target, feature=feature, **renderer_options)
         self.feature = feature
         self.camera = image_camera(camera)
         kind = "disc" if feature == "ellipse" else "polygon"
         self.renderer = Renderer(self.camera, target, kind, **renderer_options)
+        self._seed = int(renderer_options.get("seed", 0))  # valid: the Renderer checked it
         cam = self.camera
         self._pinhole = cam
         self._undistort = None
@@ -85,6 +92,13 @@ class BlobMeasure:
             self._undistort = tuple(m[:, c].reshape(H, W).astype(np.float32) for c in (0, 1))
         self._target_pose = np.asarray(target.pose, dtype=np.float64)
         self._goal: Optional[tuple] = None  # (goal pose, a*, Z*) of the moments
+
+    def _restart_noise(self, cMo) -> None:
+        """At the goal (frame -1) and the start (frame 0) of every episode, the noise restarts from the seed and
+        that frame's pose: an episode's images depend on them alone, not on the episodes this measure rendered
+        before (a sweep's rows are the same on any number of workers, in any order)."""
+        digest = hashlib.sha256(np.ascontiguousarray(cMo, dtype=np.float64).tobytes()).digest()
+        self.renderer.reseed(self._seed ^ int.from_bytes(digest[:8], "little"))
 
     def image(self, cMo) -> np.ndarray:
         """The rendered camera image (uint8, through the lens) at camera <- target pose cMo."""
@@ -103,6 +117,8 @@ class BlobMeasure:
 
     def __call__(self, frame, cMo, depth_pose, goal, uv, depth):
         cv2 = opencv()
+        if frame <= 0:
+            self._restart_noise(cMo)
         w = self.weights(self.image(cMo))
         inside = w > 0.5
         border = inside[0].any() or inside[-1].any() or inside[:, 0].any() or inside[:, -1].any()
@@ -127,6 +143,13 @@ class BlobMeasure:
 
     def __repr__(self) -> str:
         return f"BlobMeasure({self.feature}, {self.renderer!r})"
+
+    def __getstate__(self) -> dict:
+        # Its arguments, a few hundred bytes (its renderer's textures and the undistortion maps are megabytes).
+        return dict(self._arguments)
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(**state)
 
 
 def blob_source(camera, target, feature: str = "ellipse", **renderer_options):

@@ -51,8 +51,9 @@
 // showing: the sensor's frame -1, without noise), so the goal is an exact
 // equilibrium of the noise-free loop. The feature blocks' goal pose and depths
 // are what the depth mode knows there (source.hpp): the true ones for exact and
-// desired, estimated from the goal's image for pose and estimated; the points'
-// desired depths z* (EpisodeResult::depth_desired) are the true ones.
+// desired, estimated from the goal's image for pose and estimated (with
+// goal_pose = GoalPose::given the goal pose is the true one in every mode); the
+// points' desired depths z* (EpisodeResult::depth_desired) are the true ones.
 //
 // Target faces and collisions (step 2). A planar target (all points in its
 // z = 0 plane, Target::planar) is a plate: its front is the side of its plane
@@ -161,6 +162,17 @@ enum class DepthMode : std::uint8_t {
   estimated = 3,  ///< online estimate from successive frames and the known camera motion (see above)
 };
 
+/// The goal pose c*Mo (camera <- target at the goal) of the feature blocks that compare the current
+/// pose with the goal's (SourceFrame::goal: PBVS, 2.5-D's rotation, the moments' a* and Z*; source.hpp).
+enum class GoalPose : std::uint8_t {
+  /// as the depth mode knew it at the goal (teach by showing): estimated from the goal's image like
+  /// every frame's pose in the pose and estimated depth modes, the true one in exact and desired
+  taught = 0,
+  /// the goal's true c*Mo whatever the depth mode (a goal pose measured and given, not taught; the
+  /// current pose is still the depth mode's). The same as taught for the exact and desired depths.
+  given = 1,
+};
+
 /// A lens that sees beyond 90 degrees off its axis (distortion equidistant or omnidir: a fisheye or
 /// an omnidirectional camera). For it the episode judges a point in the image when
 /// CameraModel::from_bearing maps it inside the lens's image circle (max_angle) and onto the sensor,
@@ -189,6 +201,7 @@ enum class Outcome : std::uint8_t {
 };
 const char* to_string(Outcome o) noexcept;
 const char* to_string(DepthMode d) noexcept;
+const char* to_string(GoalPose g) noexcept;
 
 struct EpisodeOptions {
   double duration = 10.0;   ///< seconds; the history holds lround(duration * fps) frames
@@ -220,6 +233,11 @@ struct EpisodeOptions {
   /// over its stop_time (Status::features_lost) and the episode ends as lost_feature when the
   /// twist has reached zero, unless the points come back first.
   bool keep_lost = false;
+  /// The feature blocks' goal pose (SourceFrame::goal): taught (default) from the goal's image as the
+  /// depth mode knows it, or given, the goal's true c*Mo (not times depth_scale: it is given). With a
+  /// wrong camera model a taught goal carries the current pose's bias and PBVS ends at the goal; a given
+  /// one does not, and PBVS ends where the estimate equals it (docs/compare.md, "Calibration errors").
+  GoalPose goal_pose = GoalPose::taught;
 
   void validate() const;  ///< throws std::invalid_argument naming the field
 };

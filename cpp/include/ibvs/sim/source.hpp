@@ -42,7 +42,11 @@
 //       estimated  the rigid fit to the goal's image at the estimate's prior
 //                  depths depth_scale z* (nothing has moved yet).
 //     So with a wrong camera model (sim.MiscalibratedCamera) the pose-based
-//     laws aim at the goal's image through that model, as IBVS does.
+//     laws aim at the goal's image through that model, as IBVS does. With
+//     EpisodeOptions::goal_pose = GoalPose::given it is the goal's true pose
+//     in every depth mode (a c*Mo measured and given, not times depth_scale),
+//     while depth_pose stays the mode's: the current estimate's bias is then
+//     not cancelled (PBVS ends where the estimate equals the given pose).
 // At the goal (frame -1) cMo = the goal's true pose, depth_pose = goal, uv the
 // desired points and depth the goal's depths as the depth mode knows them
 // (exact, desired: z*; pose: from the goal's estimate; estimated: its prior).
@@ -81,7 +85,7 @@ struct SourceFrame {
   int frame = 0;                                ///< -1: the goal, then 0, 1, ...
   Pose cMo = Pose::Identity();                  ///< true camera <- target of the frame the controller sees
   Pose depth_pose = Pose::Identity();           ///< camera <- target as the depth mode knows it (NaN: unknown)
-  Pose goal = Pose::Identity();                 ///< camera <- target at the goal (c*Mo) as the depth mode knew it (see above)
+  Pose goal = Pose::Identity();                 ///< camera <- target at the goal (c*Mo): taught or given (see above)
   const Eigen::Matrix3Xd* points = nullptr;     ///< 3 x N target points, target frame
   const Points* uv = nullptr;                   ///< 2 x N the controller's points, normalised
   const Eigen::VectorXd* depth = nullptr;       ///< N depths the depth mode gave them, metres

@@ -13,7 +13,12 @@
 // moments' a* and Z* come from) is the same at frame -1 (teach by showing):
 // exact and desired the goal's true pose; pose the estimate from the goal's
 // image; estimated the fit to the goal's image at the prior depths
-// depth_scale z* (Depths::teach). Each measurement is checked by its block's Feature::check: a source
+// depth_scale z* (Depths::teach). With EpisodeOptions::goal_pose = given the
+// goal (and the depth pose at frame -1, so that a pose block's desired value is
+// its value at that goal) is the goal's true pose in every mode, not times
+// depth_scale: a goal pose given, while every frame's depth pose is still the
+// mode's; the goal's image and the depths the mode gave its points stay the
+// taught ones (2.5-D's x*, y*, Z*, the moments' desired image). Each measurement is checked by its block's Feature::check: a source
 // that cannot measure, or a refused measurement, is reported as the lost
 // block's index (the judge ends the episode as lost_feature). Allocated by the
 // constructor; measure() never allocates.
@@ -64,7 +69,8 @@ class Sources {
   /// The goal's measurements (frame -1) into desired(): goal the true world <- camera, uv_desired
   /// the controller's points there, goal_depth and goal_pose_estimate what the depth stage knows
   /// there (Depths::teach), bearings_desired the goal's bearings (Measure::goal_bearings; null:
-  /// none). Throws std::invalid_argument if the goal's pose cannot be fitted (estimated), a source
+  /// none). The goal pose is the one the depth mode knows there, or with GoalPose::given the true one.
+  /// Throws std::invalid_argument if the goal's pose cannot be fitted (estimated, taught), a source
   /// cannot measure there or its block refuses it.
   void teach(const Pose& goal, const Points& uv_desired, const Eigen::VectorXd& goal_depth,
              const Pose* goal_pose_estimate, const Bearings* bearings_desired = nullptr);
@@ -85,6 +91,7 @@ class Sources {
   Task task_storage_;           // a copy of the servo's task (copies share its blocks)
   const Task* task_ = nullptr;  // &task_storage_, or null for a PartitionedServo
   DepthMode mode_ = DepthMode::exact;
+  GoalPose goal_pose_ = GoalPose::taught;
   double scale_ = 1.0;
   Pose goal_cMo_ = Pose::Identity();    // the goal's true camera <- target
   Pose goal_known_ = Pose::Identity();  // the goal as the depth mode knows it (SourceFrame::goal)
@@ -99,6 +106,7 @@ inline Sources::Sources(const Target& target, const Task* task, const EpisodeOpt
       task_storage_(task ? *task : Task()),
       task_(task ? &task_storage_ : nullptr),
       mode_(options.depth),
+      goal_pose_(options.goal_pose),
       scale_(options.depth_scale) {
   const int n_sources = static_cast<int>(target.sources.size());
   const int n_blocks = task ? task->n_features() : 0;
@@ -141,13 +149,14 @@ inline void Sources::teach(const Pose& goal, const Points& uv_desired, const Eig
                            const Pose* goal_pose_estimate, const Bearings* bearings_desired) {
   if (!active()) return;
   goal_cMo_ = se3_inverse(goal) * target_.pose;
-  goal_known_ = goal_cMo_;  // exact, desired: the goal pose given
-  if (mode_ == DepthMode::pose) {  // as every frame's depth pose, from the goal's image
+  goal_known_ = goal_cMo_;  // exact, desired, or a goal pose given (GoalPose::given): the true one
+  const bool taught = goal_pose_ == GoalPose::taught;
+  if (taught && mode_ == DepthMode::pose) {  // as every frame's depth pose, from the goal's image
     if (!goal_pose_estimate)
       throw std::invalid_argument("ibvs: goal: the pose depth mode cannot estimate the goal's pose from its image");
     goal_known_ = *goal_pose_estimate;
     goal_known_.topRightCorner<3, 1>() *= scale_;
-  } else if (mode_ == DepthMode::estimated) {  // the fit to the goal's image at the prior depths
+  } else if (taught && mode_ == DepthMode::estimated) {  // the fit to the goal's image at the prior depths
     for (Eigen::Index i = 0; i < uv_desired.cols(); ++i)
       camera_points_.col(i) << goal_depth(i) * uv_desired(0, i), goal_depth(i) * uv_desired(1, i), goal_depth(i);
     if (!fit_pose(target_.points, camera_points_, goal_known_))

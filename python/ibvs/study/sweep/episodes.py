@@ -42,7 +42,8 @@ def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict]
                 duration=setup.duration, noise=p["noise"], latency=int(p["latency"]), depth=setup.depth,
                 seed=noise_seed, tolerance=setup.tolerances()[0], tolerance_px=setup.tolerances()[1],
                 depth_scale=p["depth_scale"],
-                boundary_margin=setup.boundary_margin, boundary_gain=setup.boundary_gain)
+                boundary_margin=setup.boundary_margin, boundary_gain=setup.boundary_gain,
+                goal_pose=setup.goal_pose_mode)
     s, m, h = r.status, r.metrics, r.history
     twist = h.twist[np.isfinite(h.twist).all(axis=1)]
     # the commanded twist's peaks, as before (bit for bit: Metrics.peak_commanded_* skip only NaN norms)

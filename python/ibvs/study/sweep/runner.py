@@ -31,7 +31,7 @@ def resolve(scenario=None, *, world: Optional[str] = None, ranges: Optional[Mapp
 
     scenario: a Scenario, a built-in name ("free", "gantry", "arm"), a TOML file (str or Path ending
     in .toml), or None (world, default "free"). ranges and settings (gain, duration, depth,
-    tolerance, tolerance_px, boundary_margin, boundary_gain, angle_wrap; None = the scenario's)
+    tolerance, tolerance_px, boundary_margin, boundary_gain, angle_wrap, goal_pose_mode; None = the scenario's)
     override the scenario's; tolerance_px without tolerance replaces the scenario's tests by the
     pixel test alone (give both for both)."""
     options: dict = {}
@@ -72,6 +72,7 @@ def sweep(
     boundary_margin: Optional[float] = None,
     boundary_gain: Optional[float] = None,
     angle_wrap: Optional[str] = None,
+    goal_pose: Optional[str] = None,
     jobs: Optional[int] = None,
     batch: Optional[int] = None,
     scheduler: Any = None,
@@ -92,6 +93,8 @@ def sweep(
         scenario's control settings (see ibvs.sim.run).
     angle_wrap: "consistent" or "per_point", set on every ibvs.Servo the schemes build
         (default: the scenario's, "consistent" unless it says otherwise).
+    goal_pose: "taught" or "given", the goal pose of the PBVS, 2.5-D and moments schemes (see ibvs.sim.run;
+        default: the scenario's, "taught" unless it says otherwise).
     jobs: local worker processes (default: os.cpu_count(); 1 = in this process).
     batch: episodes per task (default: about 4 tasks per worker, at most 256).
     scheduler: a Dask scheduler address or a dask.distributed Client: run there instead.
@@ -101,7 +104,7 @@ def sweep(
     """
     setup, options = resolve(scenario, world=world, ranges=ranges, gain=gain, duration=duration, depth=depth,
                              tolerance=tolerance, tolerance_px=tolerance_px, boundary_margin=boundary_margin,
-                             boundary_gain=boundary_gain, angle_wrap=angle_wrap)
+                             boundary_gain=boundary_gain, angle_wrap=angle_wrap, goal_pose_mode=goal_pose)
     schemes = schemes if schemes is not None else options.get("schemes")
     spec = SweepSpec(scenario=setup, seed=seed if seed is not None else options.get("seed", 0),
                      episodes=episodes if episodes is not None else options.get("episodes", 100),
