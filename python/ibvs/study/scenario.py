@@ -159,7 +159,9 @@ def _canonical(x):
         return [_canonical(v) for v in x]
     if isinstance(x, (types.FunctionType, types.BuiltinFunctionType, types.MethodType, functools.partial, type)):
         return _callable_name(x)
-    if type(x).__module__.startswith("ibvs") and type(x).__reduce__ is not object.__reduce__:
+    if isinstance(x, sim.UrdfRobot):  # its URDF's content, not where it lies; not its Pinocchio objects
+        return ["UrdfRobot", _canonical(x.fingerprint())]
+    if type(x).__module__.startswith("ibvs._core") and type(x).__reduce__ is not object.__reduce__:
         # native objects that pickle as their constructor's arguments (the feature kinds, FunctionSource):
         # those arguments (their repr may round or leave some out)
         try:
@@ -167,8 +169,6 @@ def _canonical(x):
         except TypeError:  # its callable does not pickle (FunctionSource, FunctionFeature): the callable's name
             fn = getattr(x, "measure", None) or getattr(x, "fn", None)
             return [type(x).__name__, repr(x), _callable_name(fn)]
-    if isinstance(x, sim.UrdfRobot):  # its URDF's content, not where it lies; not its Pinocchio objects
-        return ["UrdfRobot", _canonical(x.fingerprint())]
     try:  # native objects (Camera, Target, Gantry) through their pickle state
         state = x.__getstate__()
     except (AttributeError, TypeError):
