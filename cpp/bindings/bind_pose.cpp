@@ -273,17 +273,7 @@ update() alike). Stack it with any other block in a Task.)")
           "__reduce__",
           [](const PyFunctionFeature& f) {
             const py::object& fn = f.function();
-            try {  // name the callable when it does not pickle (pickle's own error names only its type)
-              py::module_::import("pickle").attr("dumps")(fn);
-            } catch (py::error_already_set& e) {
-              if (!e.matches(PyExc_Exception)) throw;
-              py::raise_from(e, PyExc_TypeError,
-                             ("FunctionFeature's fn " + py::repr(fn).cast<std::string>() +
-                              " does not pickle (a lambda or a local function does not; give a module-level function "
-                              "or an instance of a module-level class with __call__)")
-                                 .c_str());
-              throw py::error_already_set();
-            }
+            require_pickles(fn, "FunctionFeature's fn");
             return py::make_tuple(py::type::of<PyFunctionFeature>(), py::make_tuple(f.rows(), f.size(), fn, f.name()));
           },
           "Pickles as FunctionFeature(rows, size, fn, name) when fn pickles; TypeError naming it otherwise.")

@@ -197,17 +197,7 @@ std::shared_ptr<FunctionSource> make_function_source(py::handle feature, py::han
 /// in a TypeError rather than in pickle's message about a function nobody sees here.
 py::tuple reduce_function_source(const FunctionSource& x) {
   const py::object fn = x.function();
-  try {
-    py::module_::import("pickle").attr("dumps")(fn);
-  } catch (py::error_already_set& e) {
-    if (!e.matches(PyExc_Exception)) throw;
-    py::raise_from(e, PyExc_TypeError,
-                   ("FunctionSource's callable " + py::repr(fn).cast<std::string>() +
-                    " does not pickle (a lambda or a local function does not; give a module-level function or an "
-                    "instance of a module-level class with __call__, as ibvs.vision.BlobMeasure)")
-                       .c_str());
-    throw py::error_already_set();
-  }
+  require_pickles(fn, "FunctionSource's callable", ", as ibvs.vision.BlobMeasure");
   return py::make_tuple(py::type::of<FunctionSource>(),
                         py::make_tuple(py::cast(std::shared_ptr<Feature>(x.feature().clone())), fn));
 }

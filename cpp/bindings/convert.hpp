@@ -157,4 +157,21 @@ inline Projector projector_arg(py::handle obj) {
   throw py::value_error("projector must be 'classical' or 'large', got '" + s + "'");
 }
 
+/// Throws TypeError "<what> <repr of fn> does not pickle (...)", pickle's own error chained, unless fn pickles
+/// (pickle's error names only the type of what it could not pickle): for the __reduce__ of objects holding
+/// a Python callable (FunctionSource, FunctionFeature).
+inline void require_pickles(const py::object& fn, const std::string& what, const std::string& example = "") {
+  try {
+    py::module_::import("pickle").attr("dumps")(fn);
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_Exception)) throw;
+    py::raise_from(e, PyExc_TypeError,
+                   (what + " " + py::repr(fn).cast<std::string>() +
+                    " does not pickle (a lambda or a local function does not; give a module-level function or an "
+                    "instance of a module-level class with __call__" + example + ")")
+                       .c_str());
+    throw py::error_already_set();
+  }
+}
+
 }  // namespace ibvs::py_convert

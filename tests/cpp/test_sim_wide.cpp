@@ -122,6 +122,18 @@ Servo spherical_servo() {
   return Servo(task, o);
 }
 
+// Mei's omnidirectional model with distortion (xi = 1.6) on the same sensor.
+CameraModel omni_camera() {
+  return CameraModel::from_omnidir(K_of(350, 640, 512), 1.6, Eigen::Vector4d(-0.05, 0.01, 2e-4, -1e-4), 1280, 1024);
+}
+
+// An episode of four spherical blocks of kind 0 (SphericalPolarFeature) or 1 (SphericalPointFeature) to the identity.
+EpisodeResult run_spherical(int kind, const CameraModel& cam, const Target& tgt, const Pose& start,
+                            const EpisodeOptions& o) {
+  return kind == 0 ? run_episode(spherical_servo<SphericalPolarFeature>(), cam, tgt, start, Pose::Identity(), o)
+                   : run_episode(spherical_servo<SphericalPointFeature>(), cam, tgt, start, Pose::Identity(), o);
+}
+
 Pose start_100() {
   Twist v;
   v << 0.05, -0.04, -0.2, 0.0, 107 * deg, 0.3;
@@ -137,14 +149,10 @@ void spherical_episodes_converge_from_beyond_90_degrees() {
   EpisodeOptions o;
   o.duration = 40;
   o.tolerance = 1e-9;
-  const CameraModel omni =
-      CameraModel::from_omnidir(K_of(350, 640, 512), 1.6, Eigen::Vector4d(-0.05, 0.01, 2e-4, -1e-4), 1280, 1024);
+  const CameraModel omni = omni_camera();
   for (const CameraModel& cam : {docs_fisheye(), omni}) {
     for (int kind = 0; kind < 2; ++kind) {
-      const EpisodeResult r = kind == 0 ? run_episode(spherical_servo<SphericalPolarFeature>(), cam, tgt, start,
-                                                      Pose::Identity(), o)
-                                        : run_episode(spherical_servo<SphericalPointFeature>(), cam, tgt, start,
-                                                      Pose::Identity(), o);
+      const EpisodeResult r = run_spherical(kind, cam, tgt, start, o);
       CHECK(r.status.outcome == Outcome::converged);
       CHECK(r.metrics.final_translation_error < 1e-8 && r.metrics.final_rotation_error < 1e-8);
       // the first frame's measurement is the sensor's pixel through to_bearing, and R the true distance
@@ -184,14 +192,10 @@ void pose_depth_from_bearings_beyond_90_degrees() {
   o.duration = 40;
   o.tolerance = 1e-9;
   o.depth = DepthMode::pose;
-  const CameraModel omni =
-      CameraModel::from_omnidir(K_of(350, 640, 512), 1.6, Eigen::Vector4d(-0.05, 0.01, 2e-4, -1e-4), 1280, 1024);
+  const CameraModel omni = omni_camera();
   for (const CameraModel& cam : {docs_fisheye(), omni}) {
     for (int kind = 0; kind < 2; ++kind) {
-      const EpisodeResult r = kind == 0 ? run_episode(spherical_servo<SphericalPolarFeature>(), cam, tgt, start,
-                                                      Pose::Identity(), o)
-                                        : run_episode(spherical_servo<SphericalPointFeature>(), cam, tgt, start,
-                                                      Pose::Identity(), o);
+      const EpisodeResult r = run_spherical(kind, cam, tgt, start, o);
       CHECK(r.status.outcome == Outcome::converged);
       CHECK(r.metrics.final_translation_error < 1e-8 && r.metrics.final_rotation_error < 1e-8);
       // frame 0: the depths given are the points' true z (negative beyond 90 degrees) and each

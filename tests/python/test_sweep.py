@@ -226,27 +226,20 @@ def test_goal_pose_option():
         sw.sweep(None, goal_pose="measured", **kw)
 
 
-def test_angle_wrap_in_a_scenario_file(tmp_path):
-    """angle_wrap is a [control] key of scenario files; a bad value is refused naming it."""
+@pytest.mark.parametrize("key, field, good, bad", [("angle_wrap", "angle_wrap", "per_point", "both"),
+                                                    ("goal_pose", "goal_pose_mode", "given", "measured")])
+def test_control_keys_in_a_scenario_file(tmp_path, key, field, good, bad):
+    """angle_wrap and goal_pose are [control] keys of scenario files; a bad value is refused naming the key."""
     from pathlib import Path
 
     from ibvs.study import scenario
 
     text = (Path(__file__).parents[2] / "docs" / "scenario.toml").read_text()
-    for value, ok in (("per_point", True), ("both", False)):
+    for value, ok in ((good, True), (bad, False)):
         path = tmp_path / f"{value}.toml"
-        path.write_text(text.replace("[control]\n", f'[control]\nangle_wrap = "{value}"\n'))
+        path.write_text(text.replace("[control]\n", f'[control]\n{key} = "{value}"\n'))
         if ok:
-            assert scenario.load(path)[0].angle_wrap == "per_point"
+            assert getattr(scenario.load(path)[0], field) == good
         else:
-            with pytest.raises(ValueError, match="angle_wrap"):
-                scenario.load(path)
-    # goal_pose likewise
-    for value, ok in (("given", True), ("measured", False)):
-        path = tmp_path / f"{value}.toml"
-        path.write_text(text.replace("[control]\n", f'[control]\ngoal_pose = "{value}"\n'))
-        if ok:
-            assert scenario.load(path)[0].goal_pose_mode == "given"
-        else:
-            with pytest.raises(ValueError, match="goal_pose"):
+            with pytest.raises(ValueError, match=key):
                 scenario.load(path)
