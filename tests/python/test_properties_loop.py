@@ -113,7 +113,7 @@ def test_the_good_config_loads(tmp_path):
 
 
 @pytest.mark.parametrize("edit, match", [
-    (("[robot]\nkind = \"sim\"", "[robot]"), "missing \\[robot\\]"),
+    (("[robot]\nkind = \"sim\"", ""), "missing \\[robot\\]"),
     (("kind = \"render\"", "kind = \"webcam\""), "\\[source\\] kind"),
     (("gain = 1.0", "gain = -1.0"), "\\[servo\\] gain"),
     (("duration = 1.0", "duration = 1.0\nrecord = \"x.bag\""), "record: must end in .mcap"),

@@ -219,7 +219,8 @@ def load(path) -> LoopConfig:
     _keys(sv, _SERVO_KEYS, f"{where} [servo]")
     from ..study.schemes import SCHEMES
 
-    if sv.get("scheme", "polar") not in SCHEMES:
+    scheme = sv.get("scheme", "polar")
+    if not isinstance(scheme, str) or scheme not in SCHEMES:
         raise ValueError(f"{where} [servo] scheme: must be one of {', '.join(sorted(SCHEMES))}, got "
                          f"{sv.get('scheme')!r}")
     for key, lo, hi in (("gain", 0, 1e4), ("damping", 0, 1e4), ("max_linear_speed", 0, 100),
