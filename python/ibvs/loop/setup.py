@@ -165,7 +165,7 @@ class Setup:
             initial_pixels=initial, tag_ids=tuple(tr.get("tag_ids", (0,))), output="joint_velocities",
             eMc=np.eye(4), joint_names=names, max_joint_speed=sv.get("max_joint_speed"),
             lost_timeout=float(sv.get("lost_timeout", 0.2)), fps=float(camera.fps))
-        self.predictor = FeaturePredictor(o.latency, o.lag) if o.latency > 0 else None
+        self.predictor = FeaturePredictor(o.latency, o.lag, kinematics=self.kinematics) if o.latency > 0 else None
         clock = self.clock
         core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),
                              jacobian=lambda q: self.kinematics.jacobian(q), predictor=self.predictor)
