@@ -85,6 +85,8 @@ def command(args) -> int:
         a.say(PROG, f"stopped the robot on an error in the loop: {type(e).__name__}: {e}{log}")
         return 1
     print(report.timing.text())
+    if cfg.options.dry_run:
+        print(f"dry run: {report.frames} commands computed and logged, none sent")
     if report.status != 0:
         a.say(PROG, f"{report.outcome}: {report.reason}; the robot was stopped"
                     + (f"; log {report.log}" if report.log else ""))

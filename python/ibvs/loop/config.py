@@ -98,18 +98,18 @@ def _bool(table: Mapping, key: str, where: str, default: bool) -> bool:
     return x
 
 
-def _path(table: Mapping, key: str, where: str, base: Path) -> Optional[Path]:
-    """An output path, relative to the config file's directory. Output paths (log, record, rerun) are
-    checked for writing by the command (ibvs.cli.servo) before the run."""
+def _path(table: Mapping, key: str, where: str) -> Optional[Path]:
+    """An output path, relative to the working directory (as the command line's). Output paths (log,
+    record, rerun) are checked for writing by the command (ibvs.cli.servo) before the run."""
     if key not in table:
         return None
     x = table[key]
     if not isinstance(x, str) or not x:
         raise ValueError(f"{where} {key}: must be a path (a non-empty string), got {x!r}")
-    return base / x
+    return Path(x)
 
 
-def loop_options(table: Mapping, where: str = "[loop]", base: Path = Path(".")) -> LoopOptions:
+def loop_options(table: Mapping, where: str = "[loop]") -> LoopOptions:
     """LoopOptions of a [loop] table (every value checked: a ValueError naming the key)."""
     if not isinstance(table, Mapping):
         raise ValueError(f"{where} must be a table")
@@ -124,9 +124,9 @@ def loop_options(table: Mapping, where: str = "[loop]", base: Path = Path(".")) 
         lag=_number(table, "lag", where, 0, 10, default=0.0),
         converge_px=_number(table, "converge_px", where, 0, 1e5, open_lo=True),
         dry_run=_bool(table, "dry_run", where, False),
-        log=_path(table, "log", where, base),
-        record=_path(table, "record", where, base),
-        rerun=_path(table, "rerun", where, base),
+        log=_path(table, "log", where),
+        record=_path(table, "record", where),
+        rerun=_path(table, "rerun", where),
         record_images=_bool(table, "record_images", where, False),
     )
     if o.record is not None and o.record.suffix != ".mcap":
@@ -238,6 +238,6 @@ def load(path) -> LoopConfig:
         raise ValueError(f"{where} [robot] kind: the driver's name is needed (ibvs.robot.ROBOTS), got "
                          f"{rb.get('kind')!r}")
     lp = doc.get("loop", {})
-    options = loop_options(lp, f"{where} [loop]", path.parent)
+    options = loop_options(lp, f"{where} [loop]")
     clock = lp.get("clock") or ("sim" if rb["kind"] == "sim" and kind == "render" else "robot")
     return LoopConfig(path, doc, options, clock)
