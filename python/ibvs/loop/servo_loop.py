@@ -41,7 +41,7 @@ from .timing import Timing
 
 __all__ = ["LoopOptions", "LoopReport", "ServoLoop", "STATUS"]
 
-#: Exit status of each outcome (the `ibvs servo` command's).
+#: Exit status of each outcome (the `ibvs servo` command's; a signal's is 128 + its number).
 STATUS = {"duration": 0, "converged": 0, "ended": 0, "lost": 1, "watchdog": 1, "robot_error": 1, "error": 1,
           "signal": 130}
 
