@@ -541,19 +541,22 @@ def _run_loop(frames: int) -> dict[str, Any]:
     core.set_camera(cam)
     with tempfile.TemporaryDirectory() as tmp:
         options = LoopOptions(rate=cam.fps, watchdog=10.0, log=f"{tmp}/loop.jsonl", signals=False)
-        report = ServoLoop(_Frames(images, cam, clock), _BenchRobot(robot, case.start, clock), core, clock,
-                           options).run()
+        loop = ServoLoop(_Frames(images, cam, clock), _BenchRobot(robot, case.start, clock), core, clock, options)
+        c0 = time.thread_time()
+        report = loop.run()
+        cpu_ms = (time.thread_time() - c0) / max(1, report.frames) * 1e3
     t = np.asarray(report.timing.overhead) * 1e3
     return {"frames": len(t), "image": f"{int(cam.width)}x{int(cam.height)}", "outcome": report.outcome,
             "overhead_ms": {"median": float(np.median(t)), "p99": float(np.percentile(t, 99)),
-                            "max": float(t.max())}, "budget_ms": 1.0}
+                            "max": float(t.max())}, "cpu_ms": cpu_ms, "budget_ms": 1.0}
 
 
 def format_loop(res: dict[str, Any]) -> str:
     o = res["overhead_ms"]
     return (f"servo loop overhead per frame ({res['frames']} frames, {res['image']} dots; tracker + servo + joint "
             f"mapping + driver call + log, the source excluded): median {o['median']:.3f} ms, p99 {o['p99']:.3f} ms, "
-            f"max {o['max']:.3f} ms (target: median <= {res['budget_ms']:g} ms)")
+            f"max {o['max']:.3f} ms, CPU time of this thread {res['cpu_ms']:.3f} ms per frame (mean) (target: median <= "
+            f"{res['budget_ms']:g} ms)")
 
 
 def _cell(x, width: int, digits: int = 3) -> str:
