@@ -23,7 +23,7 @@ from .config import LoopConfig
 from .latency import FeaturePredictor
 from .servo_loop import ServoLoop
 
-__all__ = ["Setup", "camera_of", "open_source"]
+__all__ = ["SIM_MODELS", "Setup", "camera_of", "open_source"]
 
 
 def camera_of(table, where: str):
@@ -56,6 +56,29 @@ def _target(table, where: str):
         return sim.Target(**kw)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{where} [target]: {e}") from None
+
+
+#: The kinematic simulator's robots a config can name ([robot] kind = "sim", model = ...).
+SIM_MODELS = ("gantry", "free", "panda", "ur5")
+
+
+def _sim_options(options: Dict[str, Any], where: str) -> Dict[str, Any]:
+    """[robot] kind = "sim": model = "gantry" (ibvs.sim.Gantry.afma6), "panda" / "ur5" (example-robot-data's
+    arms with the camera of ibvs.sim.cases) or "free" (the free-flying camera, at pose = { t, r_deg });
+    the other keys go to ibvs.robot's SimRobot as they are (q0, rate, hold...)."""
+    from .. import sim
+    from .config import pose_of
+
+    out = dict(options)
+    model = out.pop("model", "gantry")
+    if model not in SIM_MODELS:
+        raise ValueError(f"{where} model: must be one of {', '.join(SIM_MODELS)}, got {model!r}")
+    if model == "free":
+        if "pose" in out:
+            out["pose"] = pose_of(out["pose"], f"{where} pose")
+        return out
+    out["robot"] = sim.Gantry.afma6() if model == "gantry" else sim.cases.arm_robot(model)
+    return out
 
 
 def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, pose=None, target=None,
@@ -117,6 +140,8 @@ class Setup:
         except ImportError as e:
             raise ValueError(f"{where} [robot]: ibvs.robot is not available ({e})") from None
         options = {k: v for k, v in table.items() if k != "kind"}
+        if table["kind"] == "sim":
+            options = _sim_options(options, f"{where} [robot]")
         try:
             return open_robot(table["kind"], clock=self.clock, **options)
         except TypeError:
