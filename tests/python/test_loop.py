@@ -251,3 +251,37 @@ def test_servo_loop_without_frames_and_no_robot_motion_before_the_first_good_ima
     assert report.outcome == "watchdog"
     sends = [c[1] for c in robot.calls if isinstance(c, tuple)]
     assert all(not s.any() for s in sends) and not robot.moving_after_exit()
+
+
+def test_a_command_refused_by_the_limits_stops_the_loop_and_the_robot():
+    """With the real ibvs.robot protocol: a joint about to pass its position limit refuses the command
+    (LimitError, never sent), the robot is halted, the loop ends with robot_error."""
+    from ibvs.robot import Limits
+
+    w = lw.world()
+    q_lo = w.q0 - 0.5
+    q_hi = w.q0 + 0.5
+    q_hi[5] = w.q0[5] + 0.01  # the wrist's rotation (0.3 rad to go) is refused 10 mrad on
+    lim = Limits(q_lo, q_hi, np.full(6, 2.0), np.full(6, 50.0))
+    robot = lw.ProtocolRobot(w.clock, w.q0, w.model, lim)
+    source = lw.render_source(w, robot)
+    loop, _ = lw.loop(w, robot=robot, source=source, options=LoopOptions(duration=5.0, signals=False))
+    report = loop.run()
+    assert report.outcome == "robot_error" and "LimitError" in report.reason, report.reason
+    sends = [h for h in robot.hooks if isinstance(h, tuple)]
+    assert sends and robot.hooks[-2:] == ["halt", "close"] and not robot.dq.any()
+    assert robot.q[5] <= q_hi[5] + 1e-12  # never past the limit
+    assert not robot.connected
+
+
+def test_dry_run_with_the_protocol_checks_limits_and_sends_nothing():
+    from ibvs.robot import Limits
+
+    w = lw.world()
+    lim = Limits(w.q0 - 1, w.q0 + 1, np.full(6, 2.0), np.full(6, 50.0))
+    robot = lw.ProtocolRobot(w.clock, w.q0, w.model, lim)
+    loop, _ = lw.loop(w, robot=robot, source=lw.render_source(w, robot),
+                      options=LoopOptions(duration=0.3, dry_run=True, signals=False))
+    report = loop.run()
+    assert report.frames > 5 and report.sent == 0
+    assert not any(isinstance(h, tuple) for h in robot.hooks) and robot.last_command is not None
