@@ -285,3 +285,61 @@ def test_dry_run_with_the_protocol_checks_limits_and_sends_nothing():
     report = loop.run()
     assert report.frames > 5 and report.sent == 0
     assert not any(isinstance(h, tuple) for h in robot.hooks) and robot.last_command is not None
+
+
+def _rendered(w, n):
+    """n frames of the gantry at rest at its start (the images a camera would have given)."""
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model)
+    src = lw.render_source(w, robot)
+    return [src.read(1.0) for _ in range(n)]
+
+
+@pytest.mark.parametrize("kind", ["video", "bag"])
+def test_replayed_video_and_bag_run_through_the_loop_to_their_end(tmp_path, kind):
+    """A recorded camera (a video file, a ROS 2 bag's images) through the loop, dry run: every frame is
+    tracked and its command computed; the end of the recording ends the loop (status 0)."""
+    import cv2
+
+    from ibvs.vision.sources import RosImageSource, VideoFile
+
+    w = lw.world()
+    frames = _rendered(w, 8)
+    if kind == "video":
+        path = tmp_path / "cam.avi"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), w.camera.fps,
+                                 (int(w.camera.width), int(w.camera.height)), isColor=False)
+        for f in frames:
+            writer.write(f.image)
+        writer.release()
+        clock = SimClock()
+        source = VideoFile(path, clock=clock)
+    else:
+        pytest.importorskip("rosbags", reason="bags need rosbags (the ros extra)")
+        from ibvs import ros
+
+        ts = ros.types.typestore()
+        path = tmp_path / "cam.mcap"
+        with ros.BagWriter(path, ts) as bag:
+            for f in frames:
+                ns = int(round(f.stamp * 1e9))
+                bag.write(ros.TOPICS["image"], ros.image_msg(f.image, ts, "cam", ns), ns)
+        clock = w.clock
+        source = RosImageSource(path, clock=clock, replay=True)
+    w2 = lw.world()
+    w2.clock = clock
+    robot = lw.RecordingRobot(clock, w.q0, w.model)
+    loop, _ = lw.loop(w2, robot=robot, source=source,
+                      options=LoopOptions(duration=10.0, dry_run=True, signals=False, rerun=tmp_path / "run.rrd"
+                                          if kind == "bag" and _has("rerun") else None))
+    report = loop.run()
+    assert report.outcome == "ended" and report.status == 0 and report.frames == 8
+    assert loop.core.state == "servoing" and report.sent == 0 and not robot.moving_after_exit()
+    assert report.timing.summary()["latency_ms"]["max"] == 0.0  # stamped on the loop's clock
+    if kind == "bag" and _has("rerun"):
+        assert (tmp_path / "run.rrd").stat().st_size > 0
+
+
+def _has(module: str) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(module) is not None

@@ -96,6 +96,7 @@ def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, po
             (base / dev).exists() else dev
         return sources.OpenCVCapture(dev, clock=clock, camera=camera, **t)
     if kind == "bag":
+        t.setdefault("replay", True)  # at the recorded pace, on the loop's clock
         return sources.RosImageSource(base / t.pop("path"), clock=clock, **t)
     # render: ibvs.vision.Renderer of the target at the robot's camera pose
     from ..vision import Renderer
