@@ -68,7 +68,21 @@ class KinematicRobot:
         self.stop()
 
 
-def episode(gain: float, delay: float, compensate: bool, duration: float, scheme: str = "cartesian") -> dict:
+class TrueDepthPredictor(FeaturePredictor):
+    """A diagnostic: the predictor given the points' true depths at capture (an oracle the loop does not have;
+    the servo keeps its constant goal depth)."""
+
+    def __init__(self, delay, model, target, **kw):
+        super().__init__(delay, kinematics=model, **kw)
+        self.model, self.world = model, np.asarray(target.world_points())
+
+    def predict(self, uv, depth, t_capture):
+        T_cw = np.linalg.inv(self.model.camera(self.q_at(t_capture)))
+        return super().predict(uv, (self.world @ T_cw[:3, :3].T + T_cw[:3, 3])[:, 2], t_capture)
+
+
+def episode(gain: float, delay: float, compensate: bool, duration: float, scheme: str = "cartesian",
+            true_depth: bool = False) -> dict:
     """One run: {converged, overshoot, final_px}."""
     clock = SimClock()
     model = sim.Gantry.afma6()
@@ -87,6 +101,8 @@ def episode(gain: float, delay: float, compensate: bool, duration: float, scheme
     source = RendererSource(Renderer(cam, target, "dots"), lambda: model.camera(robot.q), clock=clock,
                             rate=cam.fps, latency=delay)
     predictor = FeaturePredictor(delay, kinematics=model if KINEMATIC else None) if compensate and delay > 0 else None
+    if predictor is not None and true_depth:
+        predictor = TrueDepthPredictor(delay, model, target)
     params = NodeParams(desired_pixels=pixels(q_goal), depth=0.6, scheme=scheme, gain=gain, max_linear_speed=0.25,
                         max_angular_speed=1.0, initial_pixels=pixels(q0), output="joint_velocities", eMc=np.eye(4),
                         joint_names=[f"j{i}" for i in range(6)], fps=cam.fps)
@@ -144,7 +160,7 @@ def _span(gs) -> str:
 
 def table(res) -> str:
     rg = ranges(res)
-    head = "| delay (ms) |" + "".join(f" {s}: uncompensated | {s}: compensated |" for s in res["schemes"])
+    head = "| delay (ms) |" + "".join(f" {s} | {s}, compensated |" for s in res["schemes"])
     lines = [head + " MuJoCo testbed |", "|---:|" + "---|---|" * len(res["schemes"]) + "---|"]
     for d in res["delays_ms"]:
         cells = "".join(f" {_span(rg[(s, d, False)])} | {_span(rg[(s, d, True)])} |" for s in res["schemes"])
@@ -182,7 +198,17 @@ def main(argv=None) -> int:
     p.add_argument("--gains", type=float, nargs="+", default=list(GAINS))
     p.add_argument("--schemes", nargs="+", default=["cartesian", "polar"])
     p.add_argument("--out", type=Path, help="the figure (PNG); its data beside it as .json")
+    p.add_argument("--true-depth", action="store_true",
+                   help="a diagnostic instead: the compensated runs with the predictor given the true depths")
     args = p.parse_args(argv)
+    if args.true_depth:
+        print("| scheme | delay (ms) | gains (1/s): compensated, true depths |\n|---|---:|---|")
+        for scheme in args.schemes:
+            for d in args.delays:
+                gs = [g for g in args.gains if good(episode(g, d / 1e3, True, min(10.0, max(2.0, 7.0 / g)) + d / 1e3,
+                                                            scheme, true_depth=True))]
+                print(f"| {scheme} | {d:g} | {_span(gs)} |")
+        return 0
     res = study(args.delays, args.gains, args.schemes)
     print(table(res))
     if args.out is not None:
