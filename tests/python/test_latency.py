@@ -143,3 +143,18 @@ def test_kinematic_model_moves_the_points_with_the_joints():
     np.testing.assert_allclose(p.q_at(0.02), q0 + 0.02 * qdot1, atol=1e-15)
     with pytest.raises(TypeError, match="camera"):
         FeaturePredictor(0.1, kinematics=object())
+
+
+def test_the_ros_node_tells_its_predictor_what_it_commanded():
+    # ServoNodeCore (the node's message path) records each twist it publishes in its predictor
+    pytest.importorskip("rosbags", reason="the node's messages are rosbags' classes (the ros extra)")
+    from ibvs.ros.node import NodeParams, ServoNodeCore
+
+    now = {"ns": 0}
+    p = FeaturePredictor(0.05)
+    core = ServoNodeCore(NodeParams(desired_pixels=[[300, 200], [340, 200], [340, 240], [300, 240]]),
+                         clock=lambda: now["ns"], predictor=p)
+    core.last_twist, core.last_good_ns = np.array([0.1, 0, 0, 0, 0, 0.2]), 0
+    now["ns"] = 10_000_000
+    core.tick()  # the ramp's command, published at 10 ms
+    assert p._t == [0.01] and np.allclose(p._v[0], 0.95 * np.array([0.1, 0, 0, 0, 0, 0.2]))

@@ -301,6 +301,8 @@ class ServoNodeCore:
 
     def _command(self, twist: np.ndarray):
         p, ns = self.params, int(self.clock())
+        if self.predictor is not None:  # the node's own commands, for the prediction of the next images
+            self.predictor.commanded(ns / t.NS, twist, None if self.mapping is None else self.joint_velocities(twist))
         if p.output == "twist":
             if p.twist_frame == "camera":
                 return twist_msg(twist, self.types, p.camera_frame, ns)
