@@ -5,7 +5,8 @@ Sections (docs/servo-loop.md has every key; docs/servo.toml is a complete exampl
              optional when the source knows its camera (a bag's camera_info)
   [source]   kind = "render" (the simulator's renderer at the robot's camera pose; its [target]),
              "video" (a file replayed at its rate), "capture" (OpenCV VideoCapture: device index, file or
-             GStreamer pipeline) or "bag" (a ROS 2 bag's images); latency, drop (render)
+             GStreamer pipeline), "bag" (a ROS 2 bag's images) or "mujoco" (the physics testbed's camera,
+             ibvs.sim.physics.MujocoCamera of the mujoco robot's world); latency, drop (render)
   [target]   the rendered target (render): points, pose = { t = [...], r_deg = [...] }, as scenario files
   [tracker]  kind = "dots" or "tag", desired_pixels, initial_pixels, tag_ids
   [servo]    scheme, gain, depth, damping, max_linear_speed, max_angular_speed, max_joint_speed,
@@ -36,7 +37,7 @@ __all__ = ["LOOP_KEYS", "SECTIONS", "SOURCE_KINDS", "LoopConfig", "load", "loop_
 #: The sections of a config file.
 SECTIONS = ("camera", "source", "target", "tracker", "servo", "robot", "loop")
 #: The frame sources a config can name.
-SOURCE_KINDS = ("render", "video", "capture", "bag")
+SOURCE_KINDS = ("render", "video", "capture", "bag", "mujoco")
 #: The keys of [loop] (LoopOptions' fields, the clock, the signals handled always by the command).
 LOOP_KEYS = tuple(f.name for f in fields(LoopOptions) if f.name != "signals") + ("clock",)
 #: The clocks [loop] clock can name.
@@ -46,7 +47,8 @@ _SOURCE_KEYS = {"render": ("kind", "render", "latency", "drop", "seed", "dot_rad
                            "stop_after"),
                 "video": ("kind", "path", "rate"),
                 "capture": ("kind", "device", "width", "height", "fps"),
-                "bag": ("kind", "path", "image_topic", "camera_info_topic", "replay")}
+                "bag": ("kind", "path", "image_topic", "camera_info_topic", "replay"),
+                "mujoco": ("kind", "rate", "latency")}
 _TRACKER_KEYS = ("kind", "desired_pixels", "initial_pixels", "tag_ids")
 _SERVO_KEYS = ("scheme", "gain", "depth", "damping", "max_linear_speed", "max_angular_speed", "max_joint_speed",
                "lost_timeout")

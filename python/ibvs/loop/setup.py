@@ -82,7 +82,7 @@ def _sim_options(options: Dict[str, Any], where: str) -> Dict[str, Any]:
 
 
 def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, pose=None, target=None,
-                where: str = "[source]"):
+                where: str = "[source]", robot=None):
     """The FrameSource of a [source] table (not opened)."""
     from ..vision import sources
 
@@ -95,6 +95,12 @@ def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, po
         dev = str(base / dev) if isinstance(dev, str) and "!" not in dev and not dev.startswith("/dev/") and \
             (base / dev).exists() else dev
         return sources.OpenCVCapture(dev, clock=clock, camera=camera, **t)
+    if kind == "mujoco":  # the physics testbed's camera, in the world of the mujoco robot
+        from ..sim.physics import MujocoCamera
+
+        if robot is None or getattr(robot, "world", None) is None:
+            raise ValueError(f"{where}: a mujoco source needs the mujoco robot ([robot] kind = \"mujoco\")")
+        return MujocoCamera(robot.world, rate=t.get("rate"), latency=float(t.get("latency", 0.0)))
     if kind == "bag":
         t.setdefault("replay", True)  # at the recorded pace, on the loop's clock
         return sources.RosImageSource(base / t.pop("path"), clock=clock, **t)
@@ -131,7 +137,7 @@ class Setup:
         if src["kind"] == "render" and self.camera is None:
             raise ValueError(f"{where}: a render source needs a [camera] table")
         self.source = open_source(src["kind"], src, self.camera, self.clock, base, pose=self._camera_pose,
-                                  target=self.target, where=f"{where} [source]")
+                                  target=self.target, where=f"{where} [source]", robot=self.robot)
         self.core = None
         self.predictor: Optional[FeaturePredictor] = None
 
