@@ -158,3 +158,19 @@ def test_the_ros_node_tells_its_predictor_what_it_commanded():
     now["ns"] = 10_000_000
     core.tick()  # the ramp's command, published at 10 ms
     assert p._t == [0.01] and np.allclose(p._v[0], 0.95 * np.array([0.1, 0, 0, 0, 0, 0.2]))
+
+
+def test_a_prediction_out_of_the_field_is_lost_features_not_an_error():
+    pytest.importorskip("cv2", reason="the core tracks rendered dots (the vision extra)")
+    import loop_world as lw
+
+    w = lw.world()
+    p = FeaturePredictor(1.0)
+    core = lw.core(w, predictor=p)
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model)
+    frame = lw.render_source(w, robot).read(1.0)
+    first = core.twist_of_image(frame.image, frame.stamp)  # no command yet: the measured points
+    assert core.state == "servoing" and np.isfinite(first).all()
+    p.commanded(frame.stamp, [0, 0, 0, 3.0, 0, 0])  # 3 rad/s about x for the 1 s delay: behind the camera
+    out = core.twist_of_image(frame.image, frame.stamp)
+    assert "leaves the camera's field" in core.last_error and np.array_equal(out, first)  # the ramp, at age 0

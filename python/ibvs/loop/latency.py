@@ -206,11 +206,21 @@ class FeaturePredictor:
             T = np.linalg.inv(np.asarray(self.kinematics.camera(q1))) @ np.asarray(self.kinematics.camera(q0))
             P = np.column_stack([s * z[:, None], z])  # the points in the capture's camera frame
             Q = P @ T[:3, :3].T + T[:3, 3]  # ... in the camera frame at t1
-            zq = np.maximum(Q[:, 2], 1e-6 * z)  # never through the camera's plane
-            return Q[:, :2] / zq[:, None], zq
+            return _checked(Q[:, :2] / Q[:, 2:3], Q[:, 2], z)
         for _, d in self.spans(t0, t1):
             x, y = s[:, 0], s[:, 1]
             zdot_dt = -d[2] - y * z * d[3] + x * z * d[4]
-            s = s + (point_interaction(s, z) @ d[:6]).reshape(-1, 2)
-            z = np.maximum(z + zdot_dt, 1e-6 * z)  # never through the camera's plane
+            with np.errstate(all="ignore"):  # a point leaving the half-space is refused just below
+                s = s + (point_interaction(s, z) @ d[:6]).reshape(-1, 2)
+            s, z = _checked(s, z + zdot_dt, z)
         return s, z
+
+
+def _checked(uv: np.ndarray, z: np.ndarray, z_before: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """The predicted points and depths, or a ValueError when a point would leave the camera's half-space
+    (its depth under a millionth of what it was, or not finite): the servo treats it as lost features."""
+    bad = ~(np.isfinite(uv).all(axis=1) & np.isfinite(z) & (z > 1e-6 * z_before))
+    if bad.any():
+        raise ValueError(f"predict: point {int(np.flatnonzero(bad)[0])} leaves the camera's field over the delay "
+                         f"(the commanded motion takes it behind the camera)")
+    return uv, z

@@ -238,7 +238,11 @@ class ServoNodeCore:
             return self.ramp_twist()
         depth = self.depth
         if self.predictor is not None and stamp is not None:
-            uv, depth = self.predictor.predict(uv, depth, stamp)
+            try:
+                uv, depth = self.predictor.predict(uv, depth, stamp)
+            except ValueError as e:  # predicted out of the camera's field: as lost features
+                self.last_error = str(e)
+                return self.ramp_twist()
         result = self.servo.update(uv, depth, self.uv_desired, self.depth)
         if str(result.status).endswith("invalid_input"):
             self.last_error = "the servo refused the features (invalid_input)"
