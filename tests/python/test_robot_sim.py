@@ -11,7 +11,8 @@ import pytest
 import ibvs
 from ibvs import sim
 from ibvs.robot import LimitError, Limits, open_robot
-from ibvs.robot.sim import SimClock, SimRobot, _rotation_vector
+from ibvs.loop import SimClock
+from ibvs.robot.sim import SimRobot, _rotation_vector
 
 
 def replay(robot, velocities, dt):
@@ -31,7 +32,7 @@ def test_gantry_follows_the_simulators_episode():
                 robot=case.robot, duration=2.0)
     h = r.history
     dt = h.time[1] - h.time[0]
-    robot = SimRobot(case.robot, q0=h.q[0], rate=1 / dt)
+    robot = SimRobot(case.robot, q0=h.q[0], rate=1 / dt, clock=SimClock())
     assert robot.limits.dq_max.tolist() == case.robot.qdot_max.tolist()
     with robot:
         states = replay(robot, h.qdot[:-1], dt)
@@ -48,7 +49,7 @@ def test_panda_follows_the_simulators_episode():
                 robot=case.robot, duration=1.0, depth="pose")
     h = r.history
     dt = h.time[1] - h.time[0]
-    robot = open_robot("sim", robot=case.robot, q0=h.q[0], rate=1 / dt)
+    robot = open_robot("sim", robot=case.robot, q0=h.q[0], rate=1 / dt, clock=SimClock())
     with robot:
         states = replay(robot, h.qdot[:-1], dt)
     np.testing.assert_allclose(np.array([s.q for s, _ in states]), h.q[1:], atol=1e-12)
@@ -62,19 +63,20 @@ def test_free_camera_follows_the_simulators_episode():
     h = r.history
     dt = h.time[1] - h.time[0]
     lim = Limits(np.full(6, -np.inf), np.full(6, np.inf), np.full(6, 5.0), np.full(6, 1e3))
-    robot = SimRobot(pose=h.pose[0], limits=lim, rate=1 / dt)
+    robot = SimRobot(pose=h.pose[0], limits=lim, rate=1 / dt, clock=SimClock())
     with robot:
         states = replay(robot, h.twist[:-1], dt)
     np.testing.assert_allclose(np.array([T for _, T in states]), h.pose[1:], atol=1e-10)
     T = states[-1][1]
     np.testing.assert_allclose(states[-1][0].q[:3], T[:3, 3])
     np.testing.assert_allclose(robot.kinematics.camera(states[-1][0].q), T, atol=1e-12)
+    np.testing.assert_array_equal(robot.kinematics.jacobian(states[-1][0].q), np.eye(6))
 
 
 def test_exact_over_irregular_steps_and_stops_after_hold():
     g = sim.Gantry.afma6()
     q0 = (g.q_min + g.q_max) / 2
-    robot = SimRobot(g, q0=q0, rate=10.0, hold=0.5)
+    robot = SimRobot(g, q0=q0, rate=10.0, hold=0.5, clock=SimClock())
     robot.connect()
     dq = np.array([0.01, -0.02, 0.0, 0.05, 0.0, -0.03])
     robot.send_joint_velocity(dq)
@@ -98,13 +100,13 @@ def test_exact_over_irregular_steps_and_stops_after_hold():
 def test_sim_limits_refuse_and_dry_run():
     g = sim.Gantry.afma6()
     q0 = g.q_max - 1e-4
-    robot = SimRobot(g, q0=q0, rate=10.0)
+    robot = SimRobot(g, q0=q0, rate=10.0, clock=SimClock())
     robot.connect()
     with pytest.raises(LimitError, match="joint 0"):
         robot.send_joint_velocity([0.01, 0, 0, 0, 0, 0])
     robot.clock.sleep_until(1.0)
     np.testing.assert_array_equal(robot.state().q, q0)  # nothing was sent
-    dry = SimRobot(g, q0=(g.q_min + g.q_max) / 2, rate=10.0, dry_run=True)
+    dry = SimRobot(g, q0=(g.q_min + g.q_max) / 2, rate=10.0, dry_run=True, clock=SimClock())
     dry.connect()
     cmd = dry.send_joint_velocity([0.1, 0, 0, 0, 0, 0])
     dry.clock.sleep_until(1.0)
@@ -123,17 +125,14 @@ def test_sim_limits_refuse_and_dry_run():
 ])
 def test_sim_robot_refuses_bad_arguments(kw, match):
     with pytest.raises((ValueError, TypeError), match=match):
-        SimRobot(**kw)
+        SimRobot(**kw, clock=SimClock())
+    with pytest.raises(TypeError, match="clock"):
+        SimRobot(pose=np.eye(4))
+    with pytest.raises(TypeError, match="clock"):
+        SimRobot(pose=np.eye(4), clock=3.0)
 
 
-def test_sim_clock_and_rotation_vector():
-    c = SimClock(1.0)
-    c.sleep_until(0.5)
-    assert c.now() == 1.0
-    c.sleep_until(2.5)
-    assert c.now() == 2.5
-    with pytest.raises(ValueError):
-        c.sleep_until(float("nan"))
+def test_rotation_vector():
     rng = np.random.default_rng(3)
     for angle in (0.0, 1e-8, 0.3, 2.0, np.pi - 1e-9, np.pi):
         axis = rng.normal(size=3)

@@ -17,7 +17,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .limits import Command, Limits, _vector, check_command
+from .limits import Command, Limits, as_vector, check_command
 
 __all__ = ["JointState", "Robot", "RobotError"]
 
@@ -36,8 +36,8 @@ class JointState:
     stamp: float
 
     def __post_init__(self) -> None:
-        q = _vector(self.q, "q")
-        dq = _vector(self.dq, "dq", q.size)
+        q = as_vector(self.q, "q")
+        dq = as_vector(self.dq, "dq", q.size)
         if isinstance(self.stamp, bool) or not isinstance(self.stamp, (int, float, np.integer, np.floating)) \
                 or not math.isfinite(self.stamp):
             raise ValueError(f"stamp must be a finite time (s), got {self.stamp!r}")
@@ -46,26 +46,16 @@ class JointState:
         object.__setattr__(self, "stamp", float(self.stamp))
 
 
-class _MonotonicClock:
-    """time.monotonic as a Clock (now, sleep_until): the default for a driver of a real robot."""
-
-    def now(self) -> float:
-        return time.monotonic()
-
-    def sleep_until(self, t: float) -> None:
-        delay = t - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-
-
 class Robot(abc.ABC):
     """A robot that takes joint-velocity commands at `rate` Hz (abstract: see the adapters).
 
     name: what it is; limits: its Limits (n_joints = limits.n); rate: the command rate it accepts (Hz; the
     limit check's period is 1/rate); kinematics: None or a model giving the camera's pose from q (an
-    ibvs.sim.UrdfRobot...) for the workspace check and for mapping twists to joints; clock: the Clock its
-    stamps are on (now(), sleep_until(t); default time.monotonic); dry_run: check and return commands but
-    send nothing (the state is still read from the robot).
+    ibvs.sim.UrdfRobot...) for the workspace check and for mapping twists to joints; clock: None (stamps from
+    time.monotonic, as ibvs.loop.RealClock's) or the Clock (an ibvs.loop.Clock: now(), sleep_until(t)) the
+    robot keeps its time on - a simulated world's, or a robot's own (FrankyRobot's clock="robot"); a loop
+    configured with clock = "robot" runs on it; dry_run: check and return commands but send nothing (the
+    state is still read from the robot).
     """
 
     def __init__(self, name: str, limits: Limits, rate: float, kinematics: Any = None, clock: Any = None,
@@ -80,7 +70,9 @@ class Robot(abc.ABC):
         self.n_joints = limits.n
         self.rate = float(rate)
         self.kinematics = kinematics
-        self.clock = _MonotonicClock() if clock is None else clock
+        if clock is not None and not callable(getattr(clock, "now", None)):
+            raise TypeError(f"clock must be None or a Clock (now(), sleep_until(t)), got {type(clock).__name__}")
+        self.clock = clock
         self.dry_run = bool(dry_run)
         self.connected = False
         self.last_command: Optional[Command] = None
@@ -109,6 +101,10 @@ class Robot(abc.ABC):
         """Close the link (may raise: disconnect() catches)."""
 
     # --- the protocol -------------------------------------------------------------------------------
+    def now(self) -> float:
+        """The time on the robot's clock (s): its Clock's, else time.monotonic()."""
+        return time.monotonic() if self.clock is None else float(self.clock.now())
+
     def connect(self) -> None:
         """Open the link to the robot (RobotError if it cannot be reached). Idempotent."""
         if not self.connected:

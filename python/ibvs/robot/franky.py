@@ -96,7 +96,7 @@ class FrankyRobot(Robot):
     limits: Limits overriding them. rate: the command rate (Hz). hold: how long (s) each command is held
     after it is reached before the arm stops by itself (default 3 periods). relative_dynamics_factor: franky's
     scaling of its own velocity, acceleration and jerk limits (0, 1]. clock: None (time.monotonic), "robot"
-    (FrankyClock: the robot's own time) or any Clock. realtime: require a real-time kernel (franky's
+    (FrankyClock: the robot's own time, for a simulated arm) or any Clock. realtime: require a real-time kernel (franky's
     RealtimeConfig.Enforce; False: Ignore, as a simulator or a development machine needs). stop_timeout:
     how long stop() waits for the braking motion. stale_after: the link is declared lost (RobotError) when
     the robot's state has not changed for this long on the wall clock (s, default one period): libfranka
@@ -189,7 +189,7 @@ class FrankyRobot(Robot):
         except Exception as e:
             self._lost = True
             raise self._fail("reading the joint state", e) from None
-        return JointState(q, dq, self.clock.now())
+        return JointState(q, dq, self.now())
 
     def _send(self, dq: np.ndarray) -> None:
         franky = _franky()

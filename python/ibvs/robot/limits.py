@@ -37,7 +37,7 @@ class LimitError(ValueError):
     """A command refused by the limits: it was not sent (and the robot was stopped)."""
 
 
-def _vector(x, name: str, n: Optional[int] = None, allow_inf: bool = False) -> np.ndarray:
+def as_vector(x, name: str, n: Optional[int] = None, allow_inf: bool = False) -> np.ndarray:
     """x as a read-only float (n,) array, or a ValueError/TypeError naming `name`."""
     if isinstance(x, (str, bytes)) or x is None:
         raise TypeError(f"{name} must be an array of numbers, got {type(x).__name__}")
@@ -71,11 +71,11 @@ class Limits:
     workspace: Optional[Tuple[np.ndarray, np.ndarray]] = None
 
     def __post_init__(self) -> None:
-        q_min = _vector(self.q_min, "q_min", allow_inf=True)
+        q_min = as_vector(self.q_min, "q_min", allow_inf=True)
         n = q_min.size
-        q_max = _vector(self.q_max, "q_max", n, allow_inf=True)
-        dq_max = _vector(self.dq_max, "dq_max", n)
-        ddq_max = _vector(self.ddq_max, "ddq_max", n)
+        q_max = as_vector(self.q_max, "q_max", n, allow_inf=True)
+        dq_max = as_vector(self.dq_max, "dq_max", n)
+        ddq_max = as_vector(self.ddq_max, "ddq_max", n)
         if not (q_min < q_max).all():
             j = int(np.flatnonzero(~(q_min < q_max))[0])
             raise ValueError(f"q_min[{j}] = {q_min[j]} must be < q_max[{j}] = {q_max[j]}")
@@ -87,7 +87,7 @@ class Limits:
         if box is not None:
             if not isinstance(box, (tuple, list)) or len(box) != 2:
                 raise ValueError("workspace must be None or (lo, hi), two (3,) arrays")
-            lo, hi = _vector(box[0], "workspace lo", 3), _vector(box[1], "workspace hi", 3)
+            lo, hi = as_vector(box[0], "workspace lo", 3), as_vector(box[1], "workspace hi", 3)
             if not (lo < hi).all():
                 raise ValueError(f"workspace: lo {lo.tolist()} must be < hi {hi.tolist()} on every axis")
             box = (lo, hi)
@@ -161,12 +161,12 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
     if not isinstance(limits, Limits):
         raise TypeError(f"limits must be an ibvs.robot.Limits, got {type(limits).__name__}")
     n = limits.n
-    req = _vector(dq, "dq", n)
-    q = _vector(state.q, "state.q", n)
+    req = as_vector(dq, "dq", n)
+    q = as_vector(state.q, "state.q", n)
     if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)) or not (
             math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a finite period > 0 (s), got {dt!r}")
-    last = _vector(state.dq if last_dq is None else last_dq, "state.dq" if last_dq is None else "last_dq", n)
+    last = as_vector(state.dq if last_dq is None else last_dq, "state.dq" if last_dq is None else "last_dq", n)
 
     reasons = []
     # The velocity limit: one scale for all joints (direction kept).

@@ -1,8 +1,8 @@
 """The kinematic simulator's robots behind the Robot protocol: an arm of ibvs.sim (the Afma6-like
 sim.Gantry, any sim.UrdfRobot) or the free-flying camera, doing exactly what it is told.
 
-Time is a SimClock: now() is the simulated time, sleep_until(t) moves it to t at once, so a loop on it runs
-as fast as it computes. The joints integrate the commanded velocity exactly over time: a command sent at t0
+Time is the clock it is given (an ibvs.loop.SimClock: sleep_until(t) moves the time to t at once, so a loop
+on it runs as fast as it computes; the loop passes its own). The joints integrate the commanded velocity exactly over time: a command sent at t0
 holds until the next one (or for `hold` seconds, then the robot stops by itself, as a real driver's dead
 man's switch does): q(t) = q(t0) + dq (t - t0). The free camera integrates its twist (camera frame) exactly
 on SE(3): pose(t) = pose(t0) exp((t - t0) twist) (ibvs.se3_exp).
@@ -16,24 +16,9 @@ from typing import Any, Optional
 import numpy as np
 
 from .base import JointState, Robot
-from .limits import Limits, _vector
+from .limits import Limits, as_vector
 
-__all__ = ["SimClock", "SimRobot"]
-
-
-class SimClock:
-    """Simulated time (s): now() is the time reached, sleep_until(t) advances it to t at once (never back)."""
-
-    def __init__(self, start: float = 0.0) -> None:
-        self.t = float(start)
-
-    def now(self) -> float:
-        return self.t
-
-    def sleep_until(self, t: float) -> None:
-        if not math.isfinite(t):
-            raise ValueError(f"t must be a finite time (s), got {t!r}")
-        self.t = max(self.t, float(t))
+__all__ = ["SimRobot"]
 
 
 def _rotation_vector(R: np.ndarray) -> np.ndarray:
@@ -54,8 +39,8 @@ def _rotation_vector(R: np.ndarray) -> np.ndarray:
     return w * (angle / (2.0 * math.sin(angle)))
 
 
-class _FreeCamera:
-    """The free camera's kinematics for the workspace check: q = (position, rotation vector)."""
+class FreeCameraKinematics:
+    """The free camera's kinematics: q = (position, rotation vector); its joint velocity is its twist."""
 
     def camera(self, q) -> np.ndarray:
         from .. import se3_exp
@@ -64,6 +49,10 @@ class _FreeCamera:
         T[:3, :3] = se3_exp(np.r_[0.0, 0.0, 0.0, q[3:]])[:3, :3]
         T[:3, 3] = q[:3]
         return T
+
+    def jacobian(self, q) -> np.ndarray:
+        """The camera Jacobian (twist = J dq): the identity (the "joint velocity" is the twist)."""
+        return np.eye(6)
 
 
 class SimRobot(Robot):
@@ -76,7 +65,7 @@ class SimRobot(Robot):
     (default: the robot's qddot_max if set, else dq_max * rate: full speed within one period); the free
     camera's default: no position limits, 1 m/s and 1 rad/s, 10 m/s² and 10 rad/s².
     rate: the command rate (Hz). hold: how long a command holds before the robot stops by itself (s, default
-    3 periods; inf: until the next). clock: a SimClock (default: a new one, from 0) or any Clock.
+    3 periods; inf: until the next). clock: the Clock the simulated time is on (an ibvs.loop.SimClock).
     kinematics: the robot itself (the free camera: its pose), for the workspace box and the loop.
     """
 
@@ -84,6 +73,8 @@ class SimRobot(Robot):
                  ddq_max=None, hold: Optional[float] = None, clock: Any = None, dry_run: bool = False) -> None:
         from .. import sim
 
+        if clock is None:
+            raise TypeError("clock must be the Clock of the simulated time (an ibvs.loop.SimClock), got None")
         if robot is not None and not isinstance(robot, sim.Robot):
             raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, "
                             f"got {type(robot).__name__}")
@@ -93,7 +84,7 @@ class SimRobot(Robot):
                 raise ValueError(f"pose must be a finite (4, 4) world <- camera pose, got shape {T.shape}")
             if q0 is not None:
                 raise ValueError("q0 is for an arm: the free camera starts at `pose`")
-            n, kin, name = 6, _FreeCamera(), "free camera"
+            n, kin, name = 6, FreeCameraKinematics(), "free camera"
             default = Limits(np.full(6, -np.inf), np.full(6, np.inf), np.ones(6),
                              np.full(6, 10.0) if ddq_max is None else ddq_max)
         else:
@@ -113,8 +104,7 @@ class SimRobot(Robot):
                     qdd = None if qdd is None else np.asarray(qdd, dtype=float)
                     acc = qdd if qdd is not None and qdd.size == n and np.isfinite(qdd).all() else speed * rate
                 default = Limits(robot.q_min, robot.q_max, speed, acc)
-        super().__init__(f"sim {name}", default if limits is None else limits, rate, kin,
-                         SimClock() if clock is None else clock, dry_run)
+        super().__init__(f"sim {name}", default if limits is None else limits, rate, kin, clock, dry_run)
         if self.n_joints != n:
             raise ValueError(f"limits must be for {n} joints, got {self.n_joints}")
         self.robot = robot
@@ -126,14 +116,14 @@ class SimRobot(Robot):
             self._pose = T
             self._q = np.r_[T[:3, 3], _rotation_vector(T[:3, :3])]
         else:
-            self._q = _vector(q0, "q0", n).copy()
+            self._q = as_vector(q0, "q0", n).copy()
         self._dq = np.zeros(n)  # the velocity being executed
-        self._t = self.clock.now()  # the time the state is integrated to
+        self._t = self.now()  # the time the state is integrated to
         self._until = self._t  # the current command ends (dead man's switch)
 
     def _advance(self) -> None:
         """Integrate the state exactly from self._t to now (the command holds until self._until)."""
-        t = self.clock.now()
+        t = self.now()
         if t <= self._t:
             return
         moving = max(0.0, min(t, self._until) - self._t)
