@@ -1,0 +1,156 @@
+"""One closed-loop episode of a case on the testbed, through the project's servo on rendered images.
+
+    r = run(ibvs.sim.cases.arm_general_motion("panda"), ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0))
+    r.converged, r.frames_to_converge, r.overshoot, r.peak_torque
+
+The loop, frame by frame (the minimal one; ibvs.loop's is the same with its watchdog and logging):
+MujocoCamera.read (steps the physics to the frame's delivery) -> ibvs.vision.DotTracker on the image
+-> Servo.update_pixels (depths: the true ones at the exposure, as ibvs.sim.run's depth="exact")
+-> ibvs.JointMapping with the arm's Jacobian at the measured joints -> MujocoRobot.send_joint_velocity
+(through ibvs.robot.check_command). Desired pixels: the tracker's on the image rendered at the goal
+joints (teach by showing); the tracker starts at the projections of the dots at the start.
+
+Converged: every dot within tolerance_px of its desired pixel. Overshoot: how far the image error went
+past the goal along its initial direction, max(0, -min_k e_k . e_0 / |e_0|^2) (0 for an error that
+decays without crossing zero, 0.05 = it went 5 % of the initial error beyond the goal).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..._core import JointMapping
+
+__all__ = ["PhysicsResult", "run", "overshoot"]
+
+
+@dataclass(frozen=True)
+class PhysicsResult:
+    """A testbed episode. Per frame k (K frames): time (K,) exposure stamps, s; error (K, 2N) measured -
+    desired pixels; q, dq (K, n) joints at the frame's delivery; qdot (K, n) the command sent after it.
+
+    outcome: "converged", "lost" (a dot not tracked) or "timeout"; frames_to_converge (-1: not);
+    overshoot (see the module); tracking_rms / tracking_max: rad/s, joint velocity minus command over
+    every physics step (RMS, largest); peak_torque (n,) N m, the largest |actuator torque| per joint;
+    effort (n,) the URDF's limits; final_translation_error (m) between the camera and its goal pose."""
+
+    outcome: str
+    frames_to_converge: int
+    time: np.ndarray
+    error: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    qdot: np.ndarray
+    overshoot: float
+    tracking_rms: float
+    tracking_max: float
+    peak_torque: np.ndarray
+    effort: np.ndarray
+    final_translation_error: float
+
+    @property
+    def converged(self) -> bool:
+        return self.outcome == "converged"
+
+
+def overshoot(error) -> float:
+    """max(0, -min_k e_k . e_0 / |e_0|^2) of errors (K, M): how far past the goal the error went along
+    its initial direction, as a fraction of the initial error (0 when e_0 = 0)."""
+    e = np.asarray(error, dtype=float).reshape(len(error), -1)
+    e = e[np.isfinite(e).all(axis=1)]
+    if len(e) == 0 or not (e[0] @ e[0] > 0):
+        return 0.0
+    return float(max(0.0, -np.min(e @ e[0]) / (e[0] @ e[0])))
+
+
+def run(case, servo, camera=None, duration: Optional[float] = None, latency: float = 0.0,
+        tolerance_px: float = 0.5, world=None, kind: str = "dots", predictor=None) -> PhysicsResult:
+    """Run `case` (an ibvs.sim.cases.Case on an example arm: arm_general_motion("panda")...) on the
+    testbed with `servo` (an ibvs.Servo for the case's points; its camera is set to `camera`).
+
+    camera     the testbed's camera (default testbed_camera(320, 240), 30 fps): the case's own camera is
+               replaced (MuJoCo renders pinhole images)
+    duration   s (default the case's); latency: s from exposure to delivery (MujocoCamera)
+    world      a World to reuse (built for this case's robot, target and camera); else one is built and closed
+    predictor  None, or a callable (result of Servo.update_pixels, frame, state) -> camera twist (6,) used
+               instead of the servo's (a latency compensation; the loop helper's)
+    """
+    from ...vision import DotTracker
+    from .adapters import MujocoCamera, MujocoRobot
+    from .world import World, testbed_camera
+
+    camera = testbed_camera(320, 240) if camera is None else camera
+    duration = case.duration if duration is None else float(duration)
+    own = world is None
+    world = World(case.robot, case.target, camera, kind=kind) if own else world
+    try:
+        arm = world.robot
+        points = np.asarray(case.target.points, dtype=float)
+        T_wo = np.asarray(case.target.pose, dtype=float)
+        P = (T_wo[:3, :3] @ points.T).T + T_wo[:3, 3]  # the points in the frame the target is given in
+
+        def pixels_at(q):
+            T = np.linalg.inv(arm.camera(q))
+            Pc = (T[:3, :3] @ P.T).T + T[:3, 3]
+            return camera.project(Pc[:, :2] / Pc[:, 2:]), Pc[:, 2]
+
+        tracker = DotTracker(len(P))
+        tracker.reset(pixels_at(case.goal)[0])
+        desired = tracker.track(world.render(case.goal)).pixels
+        if not np.isfinite(desired).all():
+            raise ValueError("the dots are not all seen at the goal")
+        tracker.reset(pixels_at(case.start)[0])
+        world.reset(case.start)
+        world.monitor(True)
+        robot = MujocoRobot(world)
+        source = MujocoCamera(world, rate=camera.fps, latency=latency)
+        mapping = JointMapping(arm.dof, arm.mount, max_joint_speed=arm.qdot_max)
+        servo.camera = camera
+        rows = {k: [] for k in ("time", "error", "q", "dq", "qdot")}
+        outcome, first = "timeout", -1
+        source.open()
+        robot.connect()
+        try:
+            while world.time < duration:
+                frame = source.read(1.0)
+                if frame is None:
+                    continue
+                px = tracker.track(frame.image).pixels
+                state = robot.state()
+                rows["time"].append(frame.stamp)
+                rows["q"].append(state.q)
+                rows["dq"].append(state.dq)
+                if not np.isfinite(px).all():
+                    rows["error"].append(np.full(desired.size, np.nan))
+                    rows["qdot"].append(np.zeros(arm.dof))
+                    outcome = "lost"
+                    break
+                e = (px - desired).ravel()
+                rows["error"].append(e)
+                if np.abs(px - desired).max(axis=None) <= tolerance_px and \
+                        np.linalg.norm(px - desired, axis=1).max() <= tolerance_px:
+                    outcome, first = "converged", len(rows["time"]) - 1
+                    rows["qdot"].append(np.zeros(arm.dof))
+                    break
+                depth = pixels_at(world.q_at(frame.stamp))[1]
+                r = servo.update_pixels(px, depth, desired)
+                twist = r.velocity if predictor is None else predictor(r, frame, state)
+                qdot = mapping.update(twist, arm.kinematics(state.q)[1]).qdot
+                cmd = robot.send_joint_velocity(qdot)
+                rows["qdot"].append(np.asarray(cmd.dq, dtype=float))
+        finally:
+            robot.stop()
+            source.close()
+        T_err = np.linalg.inv(arm.camera(case.goal)) @ arm.camera(world.q)
+        stats = world.monitor(False)
+        arrays = {k: np.array(v) for k, v in rows.items()}
+        return PhysicsResult(outcome, first, arrays["time"], arrays["error"], arrays["q"], arrays["dq"],
+                             arrays["qdot"], overshoot(arrays["error"]), stats["tracking_rms"],
+                             stats["tracking_max"], stats["peak_torque"], world.effort.copy(),
+                             float(np.linalg.norm(T_err[:3, 3])))
+    finally:
+        if own:
+            world.close()
