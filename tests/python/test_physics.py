@@ -63,7 +63,7 @@ def test_rendered_dots_are_where_the_camera_model_projects_them(panda_case, size
     with physics.World(case.robot, case.target, physics.testbed_camera(*size)) as world:
         for q in (case.goal, case.start):
             expected = _projections(case, world, q)
-            tracker = ibvs.vision.DotTracker(len(expected))
+            tracker = ibvs.vision.DotTracker(len(expected), size)
             tracker.reset(expected + 1.5)  # a click 2 px off
             found = tracker.track(world.render(q)).pixels
             assert np.isfinite(found).all()

@@ -18,11 +18,25 @@ from typing import Optional
 import numpy as np
 
 from ...loop.clock import Clock
-from ...robot import JointState, Limits, Robot, check_command
-from ...vision.sources import Frame, FrameSource
+from ...robot import JointState, Limits, Robot
+try:
+    from ...vision.sources import Frame, FrameSource
+except ImportError:  # TEMPORARY until the loop helper's ibvs.vision.sources is merged: its spec, minimal
+    import abc
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class Frame:  # type: ignore[no-redef]
+        image: np.ndarray
+        stamp: float
+        index: int
+
+    class FrameSource(abc.ABC):  # type: ignore[no-redef]
+        rate: float
+        camera = None
 from .world import World
 
-__all__ = ["PhysicsClock", "MujocoRobot", "MujocoCamera", "PANDA_DDQ_MAX"]
+__all__ = ["PhysicsClock", "MujocoRobot", "MujocoCamera"]
 
 #: The Panda's joint acceleration limits, rad/s^2 (Franka Control Interface documentation, "Limits for Panda").
 PANDA_DDQ_MAX = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
@@ -53,60 +67,44 @@ class PhysicsClock(Clock):
 
 class MujocoRobot(Robot):
     """The testbed's arm as an ibvs.robot.Robot: send_joint_velocity checks the command with
-    ibvs.robot.check_command (the one limit check) and hands what it allows to the velocity actuators;
-    state() reads qpos/qvel, stamped with the simulated time.
+    ibvs.robot.check_command (the one limit check, period 1/rate) and hands what it allows to the velocity
+    actuators; state() reads qpos/qvel, stamped with the simulated time (clock: a PhysicsClock).
 
     world    the World
     limits   an ibvs.robot.Limits; default: the URDF's position and velocity limits, PANDA_DDQ_MAX for the
              Panda (DEFAULT_DDQ_MAX for other arms)
-    rate     Hz of the commands it accepts (default: the physics rate)
+    rate     Hz of the commands (the limit check's period; default the camera's frame rate: one command a frame)
+    dry_run  check and return commands, send none
     """
 
-    def __init__(self, world: World, limits: Optional[Limits] = None, rate: Optional[float] = None):
+    def __init__(self, world: World, limits: Optional[Limits] = None, rate: Optional[float] = None,
+                 dry_run: bool = False):
         self.world = _world(world)
         arm = world.robot
-        self.name = f"mujoco:{arm.example_name or arm.frame_name}"
-        self.n_joints = arm.dof
-        self.rate = 1.0 / world.timestep if rate is None else float(rate)
-        if not (math.isfinite(self.rate) and self.rate > 0):
-            raise ValueError(f"rate must be a positive number (Hz), got {rate!r}")
         if limits is None:
             ddq = PANDA_DDQ_MAX if arm.example_name == "panda" else (DEFAULT_DDQ_MAX,) * arm.dof
             limits = Limits(np.asarray(arm.q_min, float), np.asarray(arm.q_max, float),
                             np.asarray(arm.qdot_max, float), np.asarray(ddq, float))
-        if not isinstance(limits, Limits):
-            raise TypeError(f"limits must be an ibvs.robot.Limits, got {type(limits).__name__}")
-        self.limits = limits
-        self.kinematics = arm  # the ibvs.sim.UrdfRobot: camera mount pose and Jacobian from q
-        self._last = np.zeros(arm.dof)
-        self._last_time: Optional[float] = None
+        super().__init__(f"mujoco:{arm.example_name or arm.frame_name}", limits,
+                         world.camera.fps if rate is None else rate, kinematics=arm, clock=PhysicsClock(world),
+                         dry_run=dry_run)
+        if self.n_joints != arm.dof:
+            raise ValueError(f"limits: {self.n_joints} joints for an arm of {arm.dof}")
 
-    def connect(self) -> None:
-        """Nothing to connect: the world is in this process."""
+    def _connect(self) -> None:
+        """Nothing to open: the world is in this process."""
 
-    def state(self) -> JointState:
+    def _read_state(self) -> JointState:
         return JointState(self.world.q, self.world.dq, self.world.time)
 
-    def send_joint_velocity(self, dq):
-        now = self.world.time
-        dt = 1.0 / self.rate if self._last_time is None else max(now - self._last_time, 1.0 / self.rate)
-        cmd = check_command(dq, self.state(), self.limits, dt, self._last)
-        self.world.command(cmd.dq)
-        self._last, self._last_time = np.array(cmd.dq, dtype=float), now
-        return cmd
+    def _send(self, dq: np.ndarray) -> None:
+        self.world.command(dq)
 
-    def stop(self) -> None:
-        try:
-            self.world.command(np.zeros(self.n_joints))
-            self._last = np.zeros(self.n_joints)
-        except Exception:  # never raises (the ABC's contract)
-            pass
+    def _halt(self) -> None:
+        self.world.command(np.zeros(self.n_joints))
 
-    def disconnect(self) -> None:
-        self.stop()
-
-    def __repr__(self) -> str:
-        return f"MujocoRobot({self.name!r}, {self.n_joints} joints, {self.rate:g} Hz)"
+    def _close(self) -> None:
+        """Nothing to close (the world outlives the robot: World.close frees its renderer)."""
 
 
 class MujocoCamera(FrameSource):

@@ -97,7 +97,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
             Pc = (T[:3, :3] @ P.T).T + T[:3, 3]
             return camera.project(Pc[:, :2] / Pc[:, 2:]), Pc[:, 2]
 
-        tracker = DotTracker(len(P))
+        tracker = DotTracker(len(P), (world.width, world.height))
         tracker.reset(pixels_at(case.goal)[0])
         desired = tracker.track(world.render(case.goal)).pixels
         if not np.isfinite(desired).all():
@@ -130,8 +130,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
                     break
                 e = (px - desired).ravel()
                 rows["error"].append(e)
-                if np.abs(px - desired).max(axis=None) <= tolerance_px and \
-                        np.linalg.norm(px - desired, axis=1).max() <= tolerance_px:
+                if np.linalg.norm(px - desired, axis=1).max() <= tolerance_px:
                     outcome, first = "converged", len(rows["time"]) - 1
                     rows["qdot"].append(np.zeros(arm.dof))
                     break

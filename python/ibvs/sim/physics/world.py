@@ -50,7 +50,7 @@ import numpy as np
 from ..._core import CameraModel
 from ..._core import sim as _sim
 
-__all__ = ["World", "testbed_camera", "INSTALL"]
+__all__ = ["World", "testbed_camera", "mujoco_module", "INSTALL"]
 
 #: Installs MuJoCo (ibvs is on no package index: from a clone of its repository).
 INSTALL = 'pip install ".[physics]" from the ibvs repository root (headless rendering: apt-get install libosmesa6)'
