@@ -5,7 +5,7 @@
 
 The loop, frame by frame (the minimal one; ibvs.loop's is the same with its watchdog and logging):
 MujocoCamera.read (steps the physics to the frame's delivery) -> ibvs.vision.DotTracker on the image
--> Servo.update_pixels (depths: the true ones at the exposure, as ibvs.sim.run's depth="exact")
+-> Servo.update (the pixels normalised; depths: the true ones at the exposure, as ibvs.sim.run's depth="exact")
 -> ibvs.JointMapping with the arm's Jacobian at the measured joints -> MujocoRobot.send_joint_velocity
 (through ibvs.robot.check_command). Desired pixels: the tracker's on the image rendered at the goal
 joints (teach by showing); the tracker starts at the projections of the dots at the start.
@@ -69,7 +69,7 @@ def overshoot(error) -> float:
 def run(case, servo, camera=None, duration: Optional[float] = None, latency: float = 0.0,
         tolerance_px: float = 0.5, world=None, kind: str = "dots", predictor=None) -> PhysicsResult:
     """Run `case` (an ibvs.sim.cases.Case on an example arm: arm_general_motion("panda")...) on the
-    testbed with `servo` (an ibvs.Servo for the case's points; its camera is set to `camera`).
+    testbed with `servo` (an ibvs.Servo for the case's points, fed normalised coordinates of `camera`).
 
     camera     the testbed's camera (default testbed_camera(320, 240), 30 fps): the case's own camera is
                replaced (MuJoCo renders pinhole images)
@@ -108,7 +108,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
         robot = MujocoRobot(world)
         source = MujocoCamera(world, rate=camera.fps, latency=latency)
         mapping = JointMapping(arm.dof, arm.mount, max_joint_speed=arm.qdot_max)
-        servo.camera = camera
+        desired_uv, desired_depth = camera.normalize(desired), pixels_at(case.goal)[1]
         rows = {k: [] for k in ("time", "error", "q", "dq", "qdot")}
         outcome, first = "timeout", -1
         source.open()
@@ -135,7 +135,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
                     rows["qdot"].append(np.zeros(arm.dof))
                     break
                 depth = pixels_at(world.q_at(frame.stamp))[1]
-                r = servo.update_pixels(px, depth, desired)
+                r = servo.update(camera.normalize(px), depth, desired_uv, desired_depth)
                 twist = r.velocity if predictor is None else predictor(r, frame, state)
                 qdot = mapping.update(twist, arm.kinematics(state.q)[1]).qdot
                 cmd = robot.send_joint_velocity(qdot)

@@ -74,13 +74,16 @@ def mujoco_module():
     return mujoco
 
 
-def testbed_camera(width: int = 320, height: int = 240, fps: float = 30.0) -> CameraModel:
-    """A pinhole camera (no distortion, principal point centred) with the Afma6 camera's field of view
-    (px = 1090.6 at 640 pixels across: 33 degrees), width x height pixels, fps frames per second."""
+def testbed_camera(width: int = 320, height: int = 240, fps: float = 30.0, fov: float = 40.0) -> CameraModel:
+    """A pinhole camera (no distortion, square pixels, principal point centred) of `fov` degrees across its
+    width (40: the start of ibvs.sim.cases.arm_general_motion keeps every dot 30 px or more inside 320x240),
+    width x height pixels, fps frames per second."""
     for name, x in (("width", width), ("height", height)):
         if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or not 8 <= x <= 4096:
             raise ValueError(f"{name} must be an int in [8, 4096], got {x!r}")
-    f = 1090.6 * width / 640.0
+    if isinstance(fov, bool) or not isinstance(fov, (int, float)) or not 1.0 <= fov <= 170.0:
+        raise ValueError(f"fov must be a number of degrees in [1, 170], got {fov!r}")
+    f = width / 2.0 / np.tan(np.radians(fov) / 2.0)
     return CameraModel(f, f, (width - 1) / 2.0, (height - 1) / 2.0, width=width, height=height, fps=fps)
 
 
@@ -101,16 +104,16 @@ def _urdf_without_meshes(path: str, frame: str) -> str:
     """The URDF's text with no visual or collision elements, every movable joint off the chain from the
     root to `frame` fixed, and MuJoCo's compiler told to keep each link a body (fusestatic off)."""
     root = ET.parse(path).getroot()
-    for link in root.iter("link"):
+    for link in root.findall("link"):
         for tag in ("visual", "collision"):
             for e in link.findall(tag):
                 link.remove(e)
-    parent_joint = {j.find("child").get("link"): j for j in root.iter("joint")}
+    parent_joint = {j.find("child").get("link"): j for j in root.findall("joint")}
     chain, link = set(), frame
     while link in parent_joint:
         chain.add(parent_joint[link].get("name"))
         link = parent_joint[link].find("parent").get("link")
-    for j in root.iter("joint"):
+    for j in root.findall("joint"):
         if j.get("name") not in chain and j.get("type") != "fixed":
             j.set("type", "fixed")
     ext = ET.SubElement(root, "mujoco")
@@ -174,7 +177,7 @@ class World:
         self.joint_names = list(robot.joint_names)
         for name in self.joint_names:
             j = spec.joint(name)
-            j.armature, j.damping = ARMATURE, DAMPING
+            j.armature, j.damping = ARMATURE, [DAMPING, 0.0, 0.0]  # MuJoCo 4: damping polynomial
             j.actgravcomp = True
             j.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
             j.actfrcrange = [-effort[name], effort[name]]
@@ -228,7 +231,7 @@ class World:
         self.data.qpos[self._qadr] = q_ref
         mujoco.mj_forward(m, self.data)
         M = np.zeros((m.nv, m.nv))
-        mujoco.mj_fullM(m, M, self.data.qM)
+        mujoco.mj_fullM(m, self.data, M)
         self.kv = np.diag(M)[self._vadr] / tau
         m.actuator_gainprm[self._act, 0] = self.kv
         m.actuator_biasprm[self._act, 2] = -self.kv
@@ -357,7 +360,11 @@ class World:
     def render(self, q=None) -> np.ndarray:
         """The camera's image (height, width) uint8 with the joints at q (default the current ones)."""
         if self._renderer is None:
-            self._renderer = self.mujoco.Renderer(self.model, self.height, self.width)
+            try:
+                self._renderer = self.mujoco.Renderer(self.model, self.height, self.width)
+            except Exception as e:
+                raise RuntimeError(f"MuJoCo cannot render ({e}): headless, set MUJOCO_GL=osmesa before mujoco is "
+                                   f"first imported, with OSMesa installed ({INSTALL})") from e
         self._renderer.update_scene(self._posed(q), camera=self._camera)
         return self._renderer.render()[:, :, 0].copy()
 
