@@ -7,11 +7,12 @@
     ibvs compare --out DIR [--docs]               every law against the half-turn and the retreat, side by side
     ibvs wide --out DIR [--docs]                  a 220-degree fisheye: perspective against spherical features
     ibvs replay BAG --out twists.csv              a ROS 2 bag's images through a tracker and the servo
+    ibvs servo CONFIG.toml [--dry-run]            the real-time servo loop: camera -> servo -> robot
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
 Every bad argument exits with status 2 and one line before any work starts (so does a missing optional
 extra, naming it, and `ibvs` without a command, after its usage); every output path
-(--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out) is tried for writing then. An interrupted sweep
+(--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out, --log) is tried for writing then. An interrupted sweep
 (Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
 sweep whose Dask scheduler dies (exit status 1). Output into a closed pipe (`ibvs ... | head -1`) ends
 the command quietly with status 141.
@@ -29,7 +30,7 @@ import sys
 import ibvs
 
 from . import args as a
-from . import replay, run, sweep
+from . import replay, run, servo, sweep
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -50,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_parser(sub)
     sweep.add_parser(sub)
     replay.add_parser(sub)
+    servo.add_parser(sub)
 
     sub.add_parser("compare", help="IBVS, IBVS-P, stacked, cylindrical, partitioned, moments, 2.5-D and PBVS side by "
                                    "side (python -m ibvs.study.compare --help)", add_help=False)
@@ -85,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 #: The commands of the parser.
-COMMANDS = ("reproduce", "run", "sweep", "replay", "bench")
+COMMANDS = ("reproduce", "run", "sweep", "replay", "servo", "bench")
 
 
 def _main(argv: list[str]) -> int:
@@ -119,7 +121,9 @@ def _main(argv: list[str]) -> int:
         return sweep.command(args)
     if args.command == "replay":
         return replay.command(args)
+    if args.command == "servo":
+        return servo.command(args)
     # No command: what there is to run, on stderr, and the status of a usage error.
     parser.print_help(sys.stderr)
-    a.say("ibvs", "a command is required (reproduce, run, sweep, replay or bench), or --version or --cmake-dir")
+    a.say("ibvs", "a command is required (reproduce, run, sweep, replay, servo or bench), or --version or --cmake-dir")
     return 2

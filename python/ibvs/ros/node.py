@@ -21,11 +21,16 @@ must be restarted: reset()). A malformed message never raises: its error, naming
 last_error and counted in bad_messages.
 
 ibvs.ros.ros2_node wraps this class in an rclpy node (ibvs-ros2-servo); the wrapper only moves
-messages, parameters and the clock in and out.
+messages, parameters and the clock in and out. The servo loop (ibvs.loop) runs the same logic on arrays:
+set_camera(CameraModel), twist_of_image(gray image, stamp), ramp_twist(), joint_velocities(twist) are
+what on_camera_info, on_image and tick do between the messages. With a latency predictor
+(ibvs.loop.latency.FeaturePredictor: `predictor`) the points are predicted over the capture-to-command
+delay before the servo runs; without one (the default) nothing changes.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable, Optional, Sequence
 
@@ -125,7 +130,7 @@ class ServoNodeCore:
     Jacobian in its own frame (ibvs.sim.UrdfRobot.kinematics(q)[1]), for the joint velocity outputs.
     types: the message classes to build (see ibvs.ros.types; None: rosbags')."""
 
-    def __init__(self, params: NodeParams, clock: Callable[[], int], jacobian=None, types=None):
+    def __init__(self, params: NodeParams, clock: Callable[[], int], jacobian=None, types=None, predictor=None):
         from ..study import schemes
 
         self.params, self.clock, self.types = params, clock, types
@@ -157,6 +162,9 @@ class ServoNodeCore:
         self.state = "waiting"  # waiting (no camera_info or image yet), servoing, ramping, stopped
         self.last_error = ""
         self.bad_messages = 0
+        self.predictor = predictor  # None: the servo sees the measured points (see the module docstring)
+        self.pixels: Optional[np.ndarray] = None  # the last tracked pixels (N, 2), NaN where lost
+        self.error_norm = math.nan  # the servo's last feature-error norm
 
     # ------------------------------------------------------------------ inputs
 
@@ -164,10 +172,13 @@ class ServoNodeCore:
         """The camera model (the first valid one is kept; a different one later is taken too)."""
         try:
             cam = camera_model(msg, float(self.params.fps))
-            uv_desired = cam.normalize(self.desired)
+            self.set_camera(cam)
         except (TypeError, ValueError) as e:
             self._bad(f"camera_info: {e}" if not str(e).startswith("camera_info") else str(e))
-            return
+
+    def set_camera(self, cam: CameraModel) -> None:
+        """The camera model (an ibvs.CameraModel with a pixel sensor); a new one restarts the tracker."""
+        uv_desired = cam.normalize(self.desired)
         if self.camera is None or not (cam == self.camera):
             self.camera, self.uv_desired = cam, uv_desired
             self._new_tracker()
@@ -187,37 +198,78 @@ class ServoNodeCore:
             return None
         try:
             image = gray8(msg)
-            if image.shape != (int(self.camera.height), int(self.camera.width)):
-                raise ValueError(f"image: {image.shape[1]} x {image.shape[0]} pixels, the camera_info says "
-                                 f"{int(self.camera.width)} x {int(self.camera.height)}")
         except (TypeError, ValueError) as e:
             self._bad(str(e))
             return self.tick()
-        pixels = self.tracker.track(image).pixels
-        uv = self.camera.normalize(pixels, invalid="nan")
-        if not np.isfinite(uv).all():
-            self.last_error = "features lost"
-            return self.tick()
-        result = self.servo.update(uv, self.depth, self.uv_desired, self.depth)
-        if str(result.status).endswith("invalid_input"):
-            self.last_error = "the servo refused the features (invalid_input)"
-            return self.tick()
-        self.last_twist = np.array(result.velocity)
-        self.last_good_ns = int(self.clock())
-        self.state = "servoing"
-        return self._command(self.last_twist)
+        stamp = None
+        if self.predictor is not None:
+            try:
+                stamp = t.stamp_ns(msg, "image") / t.NS
+            except (TypeError, ValueError, AttributeError):
+                stamp = None
+        twist = self.twist_of_image(image, stamp)
+        return None if twist is None else self._command(twist)
 
     def tick(self):
         """The watchdog (call it at a fixed rate): while no good image has come for a while, the last
         twist ramped down to zero over lost_timeout, then zero. None before the first good image."""
+        twist = self.ramp_twist()
+        return None if twist is None else self._command(twist)
+
+    # ------------------------------------------------------------------ the same on arrays (ibvs.loop)
+
+    def twist_of_image(self, image: np.ndarray, stamp: Optional[float] = None) -> Optional[np.ndarray]:
+        """One gray image (uint8 (H, W), the camera's size): the camera twist (6,) to command, the
+        servo's or the lost-feature ramp's; None before the first good image (or without a camera).
+        stamp: the image's capture time (seconds on the clock), for the latency predictor."""
+        if self.camera is None:
+            self.last_error = "image before camera_info: no camera model yet"
+            return None
+        image = np.asarray(image)
+        if image.shape != (int(self.camera.height), int(self.camera.width)):
+            self._bad(f"image: {image.shape[1] if image.ndim > 1 else '?'} x {image.shape[0]} pixels, the "
+                      f"camera_info says {int(self.camera.width)} x {int(self.camera.height)}")
+            return self.ramp_twist()
+        pixels = self.tracker.track(image).pixels
+        self.pixels = np.array(pixels, dtype=np.float64)
+        uv = self.camera.normalize(pixels, invalid="nan")
+        if not np.isfinite(uv).all():
+            self.last_error = "features lost"
+            return self.ramp_twist()
+        depth = self.depth
+        if self.predictor is not None and stamp is not None:
+            uv, depth = self.predictor.predict(uv, depth, stamp)
+        result = self.servo.update(uv, depth, self.uv_desired, self.depth)
+        if str(result.status).endswith("invalid_input"):
+            self.last_error = "the servo refused the features (invalid_input)"
+            return self.ramp_twist()
+        self.error_norm = float(result.error_norm) if hasattr(result, "error_norm") else math.nan
+        self.last_twist = np.array(result.velocity)
+        self.last_good_ns = int(self.clock())
+        self.state = "servoing"
+        return self.last_twist
+
+    def ramp_twist(self) -> Optional[np.ndarray]:
+        """The lost-feature ramp now: the last good twist scaled by 1 - age / lost_timeout (age: since the
+        last good image), then zero ("stopped"); None before the first good image."""
         if self.last_good_ns is None:
             return None
         age = (int(self.clock()) - self.last_good_ns) / t.NS
         if age <= 0:
-            return self._command(self.last_twist)
+            return self.last_twist
         scale = max(0.0, 1.0 - age / float(self.params.lost_timeout))
         self.state = "ramping" if scale > 0 else "stopped"
-        return self._command(scale * self.last_twist)
+        return scale * self.last_twist
+
+    def joint_velocities(self, twist: np.ndarray) -> np.ndarray:
+        """The joint velocities (n,) of a camera twist at the last joint positions (self.q), through
+        ibvs.JointMapping and the arm's Jacobian; zeros without joint positions or for a zero twist."""
+        if self.mapping is None:
+            raise ValueError("joint_velocities: the node's output is the twist (no joints)")
+        if self.q is None or not np.asarray(twist).any():
+            return np.zeros(len(self.params.joint_names))
+        J = np.asarray(self.jacobian(self.q), dtype=np.float64)
+        return np.array(self.mapping.update(np.asarray(twist, dtype=np.float64), J).qdot)
 
     def reset(self) -> None:
         """Start over: the tracker restarted at its initial pixels, no last twist (the next command is the
@@ -255,12 +307,7 @@ class ServoNodeCore:
             R, r = self.eMc[:3, :3], self.eMc[:3, 3]
             w = R @ twist[3:]
             return twist_msg(np.concatenate([R @ twist[:3] + np.cross(r, w), w]), self.types, p.mount_frame, ns)
-        n = len(p.joint_names)
-        if self.q is None or not twist.any():
-            qdot = np.zeros(n)  # no joint state yet, or a stop: zero velocities
-        else:
-            J = np.asarray(self.jacobian(self.q), dtype=np.float64)
-            qdot = self.mapping.update(twist, J).qdot
+        qdot = self.joint_velocities(twist)  # zeros without a joint state, or for a stop
         if p.output == "joint_velocities":
             return float64_array(qdot, self.types, "joints")
         return joint_trajectory(qdot, list(p.joint_names), self.types, ns)

@@ -1,0 +1,93 @@
+"""`ibvs servo CONFIG.toml`: the servo loop (ibvs.loop) on a camera and a robot named in a config file.
+
+The config is read and checked, the output paths are tried for writing, the robot driver is built and
+connected and the source opened before the loop starts: any error there is one line
+(`ibvs servo: error: ...`) and exit status 2, with the robot stopped and disconnected. The run ends
+with the loop's outcome (ibvs.loop.servo_loop): 0 for a normal end (its duration, convergence, the end
+of a video or bag), 1 for a stop on the watchdog, lost features or a robot failure (one line saying
+what happened and where the log is), 130 / 143 for SIGINT / SIGTERM; the robot is stopped on every path.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from . import args as a
+
+PROG = "ibvs servo"
+
+
+def add_parser(sub) -> None:
+    """The `servo` subcommand's parser."""
+    s = sub.add_parser("servo", help="run the real-time servo loop of a config file (camera -> servo -> robot)",
+                       description="Run the servo loop of a TOML config: frames from a camera, a video, a bag or "
+                                   "the renderer, tracked, servoed and sent to a robot (ibvs.robot) at the camera's "
+                                   "rate; timing printed at the end and logged. See docs/servo-loop.md.")
+    s.add_argument("config", type=a.in_file, metavar="CONFIG.toml", help="the loop's config (docs/servo.toml)")
+    s.add_argument("--dry-run", action="store_true", help="compute and log the commands, send none (overrides "
+                                                          "[loop] dry_run)")
+    s.add_argument("--duration", type=a.number(0, 1e7, open_lo=True), metavar="S",
+                   help="seconds to run (overrides [loop] duration)")
+    # Output path (checked below with out_file, as every command's): the loop's JSON-lines log.
+    s.add_argument("--log", type=a.out_file(".jsonl", ".json"), metavar="FILE.jsonl",
+                   help="the per-frame log (overrides [loop] log)")
+
+
+def _check_outputs(options) -> None:
+    """Every output path of the config tried for writing before anything runs (one line, exit 2)."""
+    # Output paths: the same check as the command line's out_file (ibvs.cli.args).
+    for key, suffixes in (("log", (".jsonl", ".json")), ("record", (".mcap",)), ("rerun", (".rrd",))):
+        path = getattr(options, key)
+        if path is None:
+            continue
+        try:
+            a.out_file(*suffixes)(str(path))
+        except argparse.ArgumentTypeError as e:
+            a.fail(PROG, f"[loop] {key}: {e}")
+
+
+def command(args) -> int:
+    """Run `ibvs servo`; the loop's exit status (see the module docstring)."""
+    from ..loop.config import load
+    from ..loop.setup import Setup
+
+    try:
+        cfg = load(args.config)
+    except ValueError as e:
+        a.fail(PROG, e)
+    if args.dry_run:
+        cfg.options.dry_run = True
+    if args.duration is not None:
+        cfg.options.duration = args.duration
+    if args.log is not None:
+        cfg.options.log = args.log
+    _check_outputs(cfg.options)
+    if cfg.options.record is not None:
+        a.require(PROG, "rosbags", "[loop] record")
+    if cfg.options.rerun is not None:
+        a.require(PROG, "rerun", "[loop] rerun")
+    try:
+        setup = Setup(cfg)
+    except (ValueError, TypeError, FileNotFoundError) as e:
+        a.fail(PROG, e)
+    except ImportError as e:
+        a.fail(PROG, a.missing_extra(e) or e)
+    try:
+        setup.connect()
+    except Exception as e:  # noqa: BLE001 - unreachable robot, missing device, bad bag: one line, stopped
+        setup.close()
+        a.fail(PROG, f"{cfg.robot_kind} robot / {cfg.doc['source']['kind']} source: {type(e).__name__}: {e}")
+    loop = setup.loop(signals=True)
+    try:
+        report = loop.run()
+    except Exception as e:  # noqa: BLE001 - the loop stopped the robot before re-raising
+        log = f"; log {cfg.options.log}" if cfg.options.log else ""
+        a.say(PROG, f"stopped the robot on an error in the loop: {type(e).__name__}: {e}{log}")
+        return 1
+    print(report.timing.text())
+    if report.status != 0:
+        a.say(PROG, f"{report.outcome}: {report.reason}; the robot was stopped"
+                    + (f"; log {report.log}" if report.log else ""))
+    else:
+        print(f"{report.outcome}: {report.reason}" + (f"; log {report.log}" if report.log else ""))
+    return report.status

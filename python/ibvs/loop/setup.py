@@ -1,0 +1,190 @@
+"""From a checked config (ibvs.loop.config.load) to a running loop: the clock, the camera, the robot
+(ibvs.robot.open_robot), the frame source, the servo core (ibvs.ros.ServoNodeCore) and the latency
+predictor, in the order that moves nothing before everything is checked:
+
+    setup = Setup(load("servo.toml"))   # builds the clock, the camera, the robot driver, the source (nothing opened)
+    setup.connect()                     # connects the robot and opens the source (errors: unreachable...)
+    report = setup.loop().run()         # the servo loop; the robot stopped and disconnected at its end
+
+The camera twist is mapped to joint velocities with the robot's kinematics model (Robot.kinematics: an
+ibvs.sim robot such as ibvs.sim.UrdfRobot or ibvs.sim.Gantry): JointMapping with the camera's own
+Jacobian, camera_jacobian(q) (camera twist = J(q) qdot).
+"""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+from .clock import Clock, RealClock, SimClock
+from .config import LoopConfig
+from .latency import FeaturePredictor
+from .servo_loop import ServoLoop
+
+__all__ = ["Setup", "camera_of", "open_source"]
+
+
+def camera_of(table, where: str):
+    """An ibvs.sim.Camera from a [camera] table (its keywords, or from = a static constructor)."""
+    from .. import sim
+
+    kw = dict(table)
+    ctor = sim.Camera
+    if "from" in kw:
+        name = kw.pop("from")
+        choices = sorted(n for n, v in vars(sim.Camera).items() if not n.startswith("_") and callable(v)
+                         and isinstance(inspect.getattr_static(sim.Camera, n), staticmethod))
+        if name not in choices:
+            raise ValueError(f"{where} [camera] from: {name!r} is not one of {', '.join(choices)}")
+        ctor = getattr(sim.Camera, name)
+    try:
+        return ctor(**kw)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where} [camera]: {e}") from None
+
+
+def _target(table, where: str):
+    from .. import sim
+    from .config import pose_of
+
+    kw = dict(table)
+    if "pose" in kw:
+        kw["pose"] = pose_of(kw["pose"], f"{where} [target] pose")
+    try:
+        return sim.Target(**kw)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where} [target]: {e}") from None
+
+
+def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, pose=None, target=None,
+                where: str = "[source]"):
+    """The FrameSource of a [source] table (not opened)."""
+    from ..vision import sources
+
+    t = dict(table)
+    t.pop("kind", None)
+    if kind == "video":
+        return sources.VideoFile(base / t["path"], clock=clock, rate=t.get("rate"), camera=camera)
+    if kind == "capture":
+        dev = t.pop("device")
+        dev = str(base / dev) if isinstance(dev, str) and "!" not in dev and not dev.startswith("/dev/") and \
+            (base / dev).exists() else dev
+        return sources.OpenCVCapture(dev, clock=clock, camera=camera, **t)
+    if kind == "bag":
+        return sources.RosImageSource(base / t.pop("path"), clock=clock, **t)
+    # render: ibvs.vision.Renderer of the target at the robot's camera pose
+    from ..vision import Renderer
+
+    rkw = {k: t.pop(k) for k in ("dot_radius", "noise", "blur") if k in t}
+    try:
+        renderer = Renderer(camera, target, kind=t.pop("render", "dots"), seed=int(t.get("seed", 0)), **rkw)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: {e}") from None
+    return sources.RendererSource(renderer, pose, clock=clock, rate=float(t.get("rate", camera.fps)),
+                                  latency=float(t.get("latency", 0.0)), drop=float(t.get("drop", 0.0)),
+                                  seed=int(t.get("seed", 0)), stop_after=t.get("stop_after"))
+
+
+class Setup:
+    """Everything a config names, built in order (see the module docstring)."""
+
+    def __init__(self, config: LoopConfig, robot=None):
+        self.config = config
+        doc, where, base = config.doc, str(config.path), config.path.parent
+        self.clock: Clock = SimClock() if config.clock == "sim" else RealClock()
+        self.camera = camera_of(doc["camera"], where) if "camera" in doc else None
+        self.robot = robot if robot is not None else self._open_robot(doc["robot"], where)
+        if config.clock == "robot" and getattr(self.robot, "clock", None) is not None:
+            self.clock = self.robot.clock  # the robot's world (a physics testbed) keeps the time
+        self.kinematics = getattr(self.robot, "kinematics", None)
+        if self.kinematics is None or not hasattr(self.kinematics, "camera_jacobian"):
+            raise ValueError(f"{where} [robot]: the {doc['robot']['kind']!r} robot has no kinematics model "
+                             f"(camera_jacobian(q)): the loop cannot map the camera twist to its joints")
+        src = doc["source"]
+        self.target = _target(doc["target"], where) if src["kind"] == "render" else None
+        if src["kind"] == "render" and self.camera is None:
+            raise ValueError(f"{where}: a render source needs a [camera] table")
+        self.source = open_source(src["kind"], src, self.camera, self.clock, base, pose=self._camera_pose,
+                                  target=self.target, where=f"{where} [source]")
+        self.core = None
+        self.predictor: Optional[FeaturePredictor] = None
+
+    def _open_robot(self, table, where: str):
+        try:
+            from ..robot import open_robot
+        except ImportError as e:
+            raise ValueError(f"{where} [robot]: ibvs.robot is not available ({e})") from None
+        options = {k: v for k, v in table.items() if k != "kind"}
+        try:
+            return open_robot(table["kind"], clock=self.clock, **options)
+        except TypeError:
+            try:
+                return open_robot(table["kind"], **options)
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"{where} [robot]: {e}") from None
+        except ValueError as e:
+            raise ValueError(f"{where} [robot]: {e}") from None
+
+    def _camera_pose(self) -> np.ndarray:
+        """world <- camera at the robot's joints now (for the render source)."""
+        return np.asarray(self.kinematics.camera(self.robot.state().q))
+
+    def connect(self) -> None:
+        """Connect the robot, open the source, build the servo core (may raise: the robot unreachable,
+        the device missing)."""
+        self.robot.connect()
+        self.source.open()
+        camera = self.camera if self.camera is not None else getattr(self.source, "camera", None)
+        where = str(self.config.path)
+        if camera is None:
+            raise ValueError(f"{where}: the camera is unknown: give a [camera] table (the source has no "
+                             f"camera_info)")
+        self.core = self._core(camera)
+
+    def _core(self, camera):
+        from ..ros.node import NodeParams, ServoNodeCore
+
+        doc, o = self.config.doc, self.config.options
+        tr, sv = doc["tracker"], doc["servo"]
+        n = self.robot.n_joints
+        names = list(getattr(self.robot, "joint_names", None) or [f"joint{i + 1}" for i in range(n)])
+        initial = tr.get("initial_pixels")
+        if initial is None and self.target is not None:  # the rendered target's points at the start pose
+            T_cw = np.linalg.inv(self._camera_pose())
+            world = np.asarray(self.target.world_points())
+            world = world.T if world.shape[0] == 3 and world.shape[1] != 3 else world
+            P = (T_cw[:3, :3] @ world.T).T + T_cw[:3, 3]
+            initial = camera.project(P[:, :2] / P[:, 2:3])
+        params = NodeParams(
+            desired_pixels=tr["desired_pixels"], depth=sv.get("depth", 0.5), scheme=sv.get("scheme", "polar"),
+            gain=float(sv.get("gain", 0.5)), damping=float(sv.get("damping", 0.0)),
+            max_linear_speed=float(sv.get("max_linear_speed", 0.1)),
+            max_angular_speed=float(sv.get("max_angular_speed", 0.5)), tracker=tr.get("kind", "dots"),
+            initial_pixels=initial, tag_ids=tuple(tr.get("tag_ids", (0,))), output="joint_velocities",
+            eMc=np.eye(4), joint_names=names, max_joint_speed=sv.get("max_joint_speed"),
+            lost_timeout=float(sv.get("lost_timeout", 0.2)), fps=float(camera.fps))
+        self.predictor = FeaturePredictor(o.latency, o.lag) if o.latency > 0 else None
+        clock = self.clock
+        core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),
+                             jacobian=lambda q: self.kinematics.camera_jacobian(q), predictor=self.predictor)
+        core.set_camera(camera)
+        return core
+
+    def loop(self, signals: bool = True) -> ServoLoop:
+        """The ServoLoop of this setup (after connect())."""
+        if self.core is None:
+            self.connect()
+        self.config.options.signals = signals
+        return ServoLoop(self.source, self.robot, self.core, self.clock, self.config.options, self.predictor,
+                         config=self.config.doc)
+
+    def close(self) -> None:
+        """Stop and disconnect the robot, close the source (never raises)."""
+        for f in (getattr(self.robot, "stop", None), getattr(self.robot, "disconnect", None), self.source.close):
+            try:
+                if f is not None:
+                    f()
+            except Exception:  # noqa: BLE001
+                pass

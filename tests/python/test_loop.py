@@ -1,0 +1,251 @@
+"""The servo loop (ibvs.loop): it converges on the kinematic gantry, and it never leaves the robot moving,
+whatever ends it: its duration, convergence, the source ending or dying (watchdog), a stale robot state,
+the robot failing, lost features, an exception in the tracker or the servo, a signal. Each path is run
+with a robot that records every call (tests/python/loop_world.py): the last motion command must be a
+stop, followed by the disconnect. No timing is asserted: the loop runs on a simulated clock."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+import numpy as np
+import pytest
+
+pytest.importorskip("cv2", reason="the loop's tracker renders and tracks images (the vision extra)")
+
+import loop_world as lw  # noqa: E402
+from ibvs.loop import SimClock  # noqa: E402
+from ibvs.loop.latency import FeaturePredictor  # noqa: E402
+from ibvs.loop.servo_loop import LoopOptions, ServoLoop  # noqa: E402
+from ibvs.vision.sources import Frame, FrameSource  # noqa: E402
+
+
+def _error_px(w, robot):
+    return float(np.linalg.norm(w.pixels(robot.q) - w.goal, axis=1).max())
+
+
+def test_converges_on_the_kinematic_gantry_and_logs_every_frame(tmp_path):
+    w = lw.world()
+    log = tmp_path / "run.jsonl"
+    loop, robot = lw.loop(w, options=LoopOptions(duration=6.0, converge_px=0.5, log=log, signals=False), gain=2.0)
+    before = _error_px(w, robot)
+    report = loop.run()
+    assert report.outcome == "converged" and report.status == 0, report.text()
+    assert before > 20 and _error_px(w, robot) < 1.0
+    assert not robot.moving_after_exit()
+    lines = [json.loads(x) for x in log.read_text().splitlines()]
+    assert lines[0]["kind"] == "start" and lines[-1]["kind"] == "end"
+    frames = [x for x in lines if x["kind"] == "frame"]
+    assert len(frames) == report.frames == report.timing.summary()["frames"] > 10
+    assert all(f["sent"] for f in frames) and lines[-1]["outcome"] == "converged"
+    # capture-to-command on the simulated clock: nothing elapses while the loop computes
+    assert max(f["latency"] for f in frames) == 0.0 and report.timing.late == 0
+
+
+def test_duration_end_stops_the_robot():
+    w = lw.world()
+    loop, robot = lw.loop(w, options=LoopOptions(duration=0.5, signals=False))
+    report = loop.run()
+    assert report.outcome == "duration" and report.status == 0
+    assert robot.calls[0] == "connect" and not robot.moving_after_exit()
+    assert abs(w.clock.now() - 0.5) < 1.0 / 25
+
+
+def test_dry_run_reads_the_state_and_sends_nothing(tmp_path):
+    w = lw.world()
+    log = tmp_path / "dry.jsonl"
+    loop, robot = lw.loop(w, options=LoopOptions(duration=0.3, dry_run=True, log=log, signals=False))
+    report = loop.run()
+    assert report.sent == 0 and not any(isinstance(c, tuple) for c in robot.calls)
+    assert "state" in robot.calls and not robot.moving_after_exit()
+    frames = [json.loads(x) for x in log.read_text().splitlines() if '"frame"' in x]
+    assert frames and not any(f["sent"] for f in frames)
+    assert any(np.abs(f["qdot"]).max() > 0 for f in frames)  # computed all the same
+
+
+def test_source_that_dies_trips_the_watchdog():
+    w = lw.world(stop_after=5)
+    loop, robot = lw.loop(w, options=LoopOptions(duration=5.0, watchdog=0.3, signals=False))
+    report = loop.run()
+    assert report.outcome == "watchdog" and report.status == 1 and "no frame" in report.reason
+    assert report.frames == 5 and report.timing.missed >= 1
+    assert not robot.moving_after_exit()
+    assert w.clock.now() < 5 / 30 + 0.3 + 2 / 30  # stopped within a period of the watchdog's time
+    # between the last frame and the watchdog, the lost-frame ramp went down, never up
+    sends = [np.abs(c[1]).max() for c in robot.calls if isinstance(c, tuple)]
+    assert sends[-1] <= sends[4]
+
+
+def test_stale_robot_state_trips_the_watchdog():
+    w = lw.world()
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model, stale_after=3)
+    loop, _ = lw.loop(w, robot=robot, options=LoopOptions(duration=5.0, state_watchdog=0.1, signals=False))
+    report = loop.run()
+    assert report.outcome == "watchdog" and "state" in report.reason and not robot.moving_after_exit()
+
+
+@pytest.mark.parametrize("where", ["state", "send"])
+def test_robot_failure_stops_within_one_period(tmp_path, where):
+    w = lw.world()
+    kw = {"fail_state_at": 4} if where == "state" else {"fail_send_at": 4}
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model, **kw)
+    bag = tmp_path / "run.mcap"
+    options = LoopOptions(duration=5.0, log=tmp_path / "r.jsonl", signals=False,
+                          record=bag if pytest.importorskip("rosbags") else None)
+    loop, _ = lw.loop(w, robot=robot, options=options)
+    report = loop.run()
+    assert report.outcome == "robot_error" and report.status == 1 and "the robot failed" in report.reason
+    assert report.frames == 4 and not robot.moving_after_exit()
+    assert w.clock.now() <= 4 / 30 + 1e-9
+    from ibvs import ros
+
+    counts = ros.topics(bag)  # closed and readable
+    assert counts[ros.TOPICS["twist"]][1] == 4
+
+
+def test_lost_features_ramp_to_zero_then_stop():
+    w = lw.world()
+
+    class Blank(FrameSource):
+        """The renderer's frames, then black ones: every dot lost."""
+
+        def __init__(self, inner, good):
+            self.inner, self.good, self.rate, self.camera = inner, good, inner.rate, inner.camera
+
+        def read(self, timeout):
+            f = self.inner.read(timeout)
+            if f is not None and f.index >= self.good:
+                return Frame(np.zeros_like(f.image), f.stamp, f.index)
+            return f
+
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model)
+    source = Blank(lw.render_source(w, robot), 6)
+    loop, _ = lw.loop(w, robot=robot, source=source, options=LoopOptions(duration=5.0, signals=False),
+                      lost_timeout=0.2)
+    report = loop.run()
+    assert report.outcome == "lost" and report.status == 1
+    sends = [np.abs(c[1]).max() for c in robot.calls if isinstance(c, tuple)]
+    ramp = sends[6:]
+    assert len(ramp) >= 5 and all(b <= a + 1e-15 for a, b in zip(ramp, ramp[1:]))  # down, linearly, to 0
+    assert sends[-1] == 0.0 and not robot.moving_after_exit()
+
+
+@pytest.mark.parametrize("part", ["tracker", "servo", "source"])
+def test_exception_in_a_part_stops_the_robot_and_is_raised(part):
+    w = lw.world()
+    loop, robot = lw.loop(w, options=LoopOptions(duration=5.0, signals=False))
+    calls = {"n": 0}
+
+    def boom(*a, **k):
+        calls["n"] += 1
+        if calls["n"] > 3:
+            raise RuntimeError(f"{part} exploded")
+        return original(*a, **k)
+
+    if part == "tracker":
+        loop.core.set_camera(w.camera)
+        original = loop.core.tracker.track
+        loop.core.tracker.track = boom
+    elif part == "servo":
+        original = loop.core.joint_velocities
+        loop.core.joint_velocities = boom
+    else:
+        original = loop.source.read
+        loop.source.read = boom
+    with pytest.raises(RuntimeError, match="exploded"):
+        loop.run()
+    assert not robot.moving_after_exit()
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_stops_the_robot_then_disconnects(signum):
+    w = lw.world()
+    loop, robot = lw.loop(w, options=LoopOptions(duration=5.0, signals=True))
+    inner = loop.source.read
+
+    def read(timeout):  # the signal arrives while the loop runs (after a few frames)
+        f = inner(timeout)
+        if f is not None and f.index == 3:
+            os.kill(os.getpid(), signum)
+        return f
+
+    loop.source.read = read
+    previous = signal.getsignal(signum)
+    report = loop.run()
+    assert report.outcome == "signal" and report.status == 128 + signum
+    assert not robot.moving_after_exit() and report.frames <= 5
+    assert signal.getsignal(signum) is previous  # the handlers put back
+
+
+def test_dropped_frames_are_counted():
+    w = lw.world(drop=0.3)
+    loop, robot = lw.loop(w, options=LoopOptions(duration=1.0, signals=False))
+    report = loop.run()
+    s = report.timing.summary()
+    assert s["dropped"] > 0 and s["frames"] + s["dropped"] in (29, 30, 31)
+    assert not robot.moving_after_exit()
+
+
+def test_injected_latency_is_measured_and_late_frames_counted():
+    w = lw.world(latency=0.1)
+    loop, robot = lw.loop(w, options=LoopOptions(duration=1.0, late=0.05, signals=False))
+    report = loop.run()
+    s = report.timing.summary()
+    assert s["latency_ms"]["p50"] == pytest.approx(100.0, abs=1e-6) and s["late"] == s["frames"] > 0
+    assert not robot.moving_after_exit()
+
+
+def test_compensation_off_is_bit_for_bit_the_servo_on_the_measured_points():
+    # Two identical runs, one with a predictor whose delay spans no command: the same twists to the bit
+    # (the prediction adds zero motion); and a core without predictor = the servo on the measured points.
+    w1, w2 = lw.world(), lw.world()
+    l1, r1 = lw.loop(w1, options=LoopOptions(duration=0.3, signals=False))
+    l2, r2 = lw.loop(w2, options=LoopOptions(duration=0.3, signals=False))
+    l1.run()
+    l2.run()
+    s1 = [c[1] for c in r1.calls if isinstance(c, tuple)]
+    s2 = [c[1] for c in r2.calls if isinstance(c, tuple)]
+    assert len(s1) == len(s2) and all(np.array_equal(a, b) for a, b in zip(s1, s2))
+
+
+def test_compensation_removes_the_delay_overshoot():
+    """At a gain where the 100 ms delayed loop overshoots, the compensated one does not (kinematic gantry)."""
+    overshoot = {}
+    for name, predictor in (("raw", None), ("compensated", FeaturePredictor(0.1))):
+        w = lw.world(latency=0.1, start=np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.3]))
+        loop, robot = lw.loop(w, options=LoopOptions(duration=2.5, signals=False), predictor=predictor, gain=6.0)
+        qs = []
+        w.clock.on_advance(lambda t0, t1: qs.append(robot.q[5] - lw.GOAL_Q[5]))
+        loop.run()
+        qs = np.array(qs)
+        overshoot[name] = max(0.0, -qs.min()) / 0.3  # the rotation about the axis crossing the goal
+    assert overshoot["raw"] > 0.05 and overshoot["compensated"] < 0.05, overshoot
+
+
+def test_a_clock_only_the_loop_advances_is_enough():
+    # The loop on a SimClock runs without sleeping: 10 s of loop in far less (nothing asserted on time).
+    w = lw.world()
+    loop, robot = lw.loop(w, options=LoopOptions(duration=10.0, converge_px=0.5, signals=False), gain=2.0)
+    report = loop.run()
+    assert report.outcome == "converged"
+    assert isinstance(w.clock, SimClock)
+
+
+def test_servo_loop_without_frames_and_no_robot_motion_before_the_first_good_image():
+    class Silent(FrameSource):
+        rate = 30.0
+
+        def read(self, timeout):
+            clock.sleep_until(clock.now() + timeout)
+            return None
+
+    w = lw.world()
+    clock = w.clock
+    robot = lw.RecordingRobot(clock, w.q0, w.model)
+    loop = ServoLoop(Silent(), robot, lw.core(w), clock, LoopOptions(duration=2.0, watchdog=0.25, signals=False))
+    report = loop.run()
+    assert report.outcome == "watchdog"
+    sends = [c[1] for c in robot.calls if isinstance(c, tuple)]
+    assert all(not s.any() for s in sends) and not robot.moving_after_exit()
