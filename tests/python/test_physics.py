@@ -57,9 +57,10 @@ def _projections(case, world, q):
     return world.camera.project(P[:, :2] / P[:, 2:])
 
 
-@pytest.mark.parametrize("size", [(160, 120), (320, 240)])
-def test_rendered_dots_are_where_the_camera_model_projects_them(panda_case, size):
-    case = panda_case
+@pytest.mark.parametrize("size, mounting", [((160, 120), "eye_in_hand"), ((320, 240), "eye_in_hand"),
+                                            ((160, 120), "eye_to_hand")])
+def test_rendered_dots_are_where_the_camera_model_projects_them(panda_case, size, mounting):
+    case = panda_case if mounting == "eye_in_hand" else sim.cases.eye_to_hand("panda", "general_motion")
     with physics.World(case.robot, case.target, physics.testbed_camera(*size)) as world:
         for q in (case.goal, case.start):
             expected = _projections(case, world, q)

@@ -19,21 +19,7 @@ import numpy as np
 
 from ...loop.clock import Clock
 from ...robot import JointState, Limits, Robot
-try:
-    from ...vision.sources import Frame, FrameSource
-except ImportError:  # TEMPORARY until the loop helper's ibvs.vision.sources is merged: its spec, minimal
-    import abc
-    from dataclasses import dataclass
-
-    @dataclass(frozen=True)
-    class Frame:  # type: ignore[no-redef]
-        image: np.ndarray
-        stamp: float
-        index: int
-
-    class FrameSource(abc.ABC):  # type: ignore[no-redef]
-        rate: float
-        camera = None
+from ...vision.sources import Frame, FrameSource
 from .world import World
 
 __all__ = ["PhysicsClock", "MujocoRobot", "MujocoCamera"]

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..._core import JointMapping
 
-__all__ = ["PhysicsResult", "run", "overshoot"]
+__all__ = ["PhysicsResult", "run", "run_loop", "overshoot"]
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
         world.monitor(True)
         robot = MujocoRobot(world)
         source = MujocoCamera(world, rate=camera.fps, latency=latency)
-        mapping = JointMapping(arm.dof, arm.mount, max_joint_speed=arm.qdot_max)
+        mapping = JointMapping(arm.dof, arm.mount, max_joint_speed=arm.qdot_max, mounting=arm.mounting)
         desired_uv, desired_depth = camera.normalize(desired), pixels_at(case.goal)[1]
         rows = {k: [] for k in ("time", "error", "q", "dq", "qdot")}
         outcome, first = "timeout", -1
@@ -137,7 +137,9 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
                 depth = pixels_at(world.q_at(frame.stamp))[1]
                 r = servo.update(camera.normalize(px), depth, desired_uv, desired_depth)
                 twist = r.velocity if predictor is None else predictor(r, frame, state)
-                qdot = mapping.update(twist, arm.kinematics(state.q)[1]).qdot
+                T_be, J = arm.kinematics(state.q)
+                qdot = (mapping.update(twist, J) if arm.mounting == "eye_in_hand" else
+                        mapping.update(twist, J, bMe=T_be)).qdot
                 cmd = robot.send_joint_velocity(qdot)
                 rows["qdot"].append(np.asarray(cmd.dq, dtype=float))
         finally:
@@ -153,3 +155,86 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
     finally:
         if own:
             world.close()
+
+
+def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, duration: Optional[float] = None,
+             latency: float = 0.0, compensate: bool = False, lag: float = 0.0, tolerance_px: float = 0.5,
+             max_linear_speed: float = 1.0, max_angular_speed: float = 3.0, world=None) -> PhysicsResult:
+    """`case` on the testbed through ibvs.loop's ServoLoop, the loop that drives real robots: MujocoCamera
+    (frames delivered `latency` s after exposure) -> ibvs.ros.ServoNodeCore (the tracker, the servo of
+    `scheme` at `gain` on the constant desired depths, the lost-feature ramp, ibvs.JointMapping) ->
+    MujocoRobot, on the PhysicsClock, ended when every dot is within tolerance_px of its goal.
+
+    compensate: predict the features over `latency` (+ the robot's velocity lag `lag`, s) with
+    ibvs.loop.latency.FeaturePredictor (the loop's latency compensation); False: the servo sees the delayed
+    features. max_linear_speed, max_angular_speed: the servo's twist caps (m/s, rad/s). The result's
+    arrays come from the loop's JSON-lines log (time: frame stamps; error: tracked - desired pixels).
+    """
+    import json
+    import os
+    import tempfile
+
+    from ...loop.latency import FeaturePredictor
+    from ...loop.servo_loop import LoopOptions, ServoLoop
+    from ...ros.node import NodeParams, ServoNodeCore
+    from ...vision import DotTracker
+    from .adapters import MujocoCamera, MujocoRobot, PhysicsClock
+    from .world import World, testbed_camera
+
+    camera = testbed_camera(320, 240) if camera is None else camera
+    duration = case.duration if duration is None else float(duration)
+    own = world is None
+    world = World(case.robot, case.target, camera) if own else world
+    tmp = tempfile.mkdtemp(prefix="ibvs-physics-")
+    log = os.path.join(tmp, "loop.jsonl")
+    try:
+        arm = world.robot
+        points = np.asarray(case.target.points, dtype=float)
+        T_wo = np.asarray(case.target.pose, dtype=float)
+        P = (T_wo[:3, :3] @ points.T).T + T_wo[:3, 3]
+
+        def pixels_at(q):
+            T = np.linalg.inv(arm.camera(q))
+            Pc = (T[:3, :3] @ P.T).T + T[:3, 3]
+            return camera.project(Pc[:, :2] / Pc[:, 2:]), Pc[:, 2]
+
+        teach = DotTracker(len(P), (world.width, world.height))
+        teach.reset(pixels_at(case.goal)[0])
+        desired = teach.track(world.render(case.goal)).pixels  # teach by showing
+        if not np.isfinite(desired).all():
+            raise ValueError("the dots are not all seen at the goal")
+        world.reset(case.start)
+        world.monitor(True)
+        clock = PhysicsClock(world)
+        robot = MujocoRobot(world)
+        source = MujocoCamera(world, rate=camera.fps, latency=latency)
+        predictor = FeaturePredictor(latency, lag) if compensate and latency > 0 else None
+        params = NodeParams(desired_pixels=desired, depth=pixels_at(case.goal)[1], scheme=scheme, gain=gain,
+                            max_linear_speed=max_linear_speed, max_angular_speed=max_angular_speed,
+                            initial_pixels=pixels_at(case.start)[0], output="joint_velocities", eMc=arm.mount,
+                            joint_names=list(arm.joint_names), max_joint_speed=arm.qdot_max, fps=camera.fps)
+        core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),
+                             jacobian=lambda q: arm.kinematics(q)[1], predictor=predictor)
+        core.set_camera(camera)
+        options = LoopOptions(duration=duration, converge_px=tolerance_px, log=log, signals=False,
+                              latency=latency if predictor is not None else 0.0, lag=lag)
+        report = ServoLoop(source, robot, core, clock, options, predictor).run()
+        frames = [r for r in map(json.loads, open(log)) if r.get("kind", r.get("type")) == "frame"
+                  or "pixels" in r]
+        px = np.array([np.asarray(r["pixels"], dtype=float) for r in frames])
+        error = (px - desired).reshape(len(px), -1)
+        stats = world.monitor(False)
+        T_err = np.linalg.inv(arm.camera(case.goal)) @ arm.camera(world.q)
+        outcome = {"converged": "converged", "duration": "timeout"}.get(report.outcome, report.outcome)
+        first = len(frames) - 1 if outcome == "converged" else -1
+        n = arm.dof
+        return PhysicsResult(outcome, first, np.array([r["stamp"] for r in frames]), error, np.zeros((0, n)),
+                             np.zeros((0, n)), np.array([r["qdot"] for r in frames]), overshoot(error),
+                             stats["tracking_rms"], stats["tracking_max"], stats["peak_torque"],
+                             world.effort.copy(), float(np.linalg.norm(T_err[:3, 3])))
+    finally:
+        if own:
+            world.close()
+        for f in os.listdir(tmp):
+            os.remove(os.path.join(tmp, f))
+        os.rmdir(tmp)

@@ -35,7 +35,8 @@ pixel-centre convention, which is OpenGL's width / 2), so CameraModel.project gi
 rendered points (tests/python/test_physics.py checks the dots to 0.5 px).
 
 The target: a plane holding the texture ibvs.vision.Renderer draws (dots, tag...; texture columns
-along the target's x, rows along its y), seen from the target's -z side, lit by the headlight alone
+along the target's x, rows along its y), seen from the target's -z side (eye-to-hand: a static plane moved with the flange before each render, as MuJoCo allows
+planes in static bodies only; it has neither mass nor contacts), lit by the headlight alone
 (ambient 1, no diffuse or specular light: the rendered gray levels are the texture's).
 """
 
@@ -214,8 +215,10 @@ class World:
         # plane frame: the target's, turned by pi about x (its +z, the visible side, towards the camera)
         P = np.asarray(target.pose, dtype=float) @ np.block([[_FLIP, np.r_[centre, 0.0][:, None]],
                                                               [np.zeros((1, 3)), np.ones((1, 1))]])
-        holder = spec.worldbody if eye_in_hand else flange
-        holder.add_geom(name="target", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent[0] / 2, extent[1] / 2, 1.0],
+        # eye-to-hand: MuJoCo allows planes in static bodies only; the plane (massless, contact-free: no dynamics)
+        # is in the world and moved to flange <- plane P each time the scene is posed (_posed)
+        self._plane_on_flange = None if eye_in_hand else P
+        spec.worldbody.add_geom(name="target", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent[0] / 2, extent[1] / 2, 1.0],
                         pos=P[:3, 3], quat=_quat(P[:3, :3]), material="target", contype=0, conaffinity=0,
                         mass=0.0)
 
@@ -227,6 +230,7 @@ class World:
         self._act = np.array([m.actuator(name).id for name in self.joint_names])
         self._flange = m.body(robot.frame_name).id
         self._camera = m.camera("camera").id
+        self._plane = m.geom("target").id
         # gains: kv = M_jj(q_ref) / tau
         self.data.qpos[self._qadr] = q_ref
         mujoco.mj_forward(m, self.data)
@@ -340,6 +344,11 @@ class World:
         d.qpos[self._qadr] = self.q if q is None else self._vector(q, "q")
         self.mujoco.mj_kinematics(self.model, d)
         self.mujoco.mj_camlight(self.model, d)
+        if self._plane_on_flange is not None:
+            T = np.eye(4)
+            T[:3, :3], T[:3, 3] = d.xmat[self._flange].reshape(3, 3), d.xpos[self._flange]
+            T = T @ self._plane_on_flange
+            d.geom_xpos[self._plane], d.geom_xmat[self._plane] = T[:3, 3], T[:3, :3].ravel()
         return d
 
     def flange_pose(self, q=None) -> np.ndarray:
