@@ -19,6 +19,10 @@ baselines show where the time of a call goes.
 distorted 640x480 camera, per frame, rendering the dots, tracking them, rendering + detecting the
 AprilTag, one servo step from pixels, and a whole image episode (--frames frames) per frame; each
 with its share of the 16.7 ms frame budget at 60 Hz.
+
+``--loop`` times the servo loop's own overhead per frame (ibvs.loop.ServoLoop; the source excluded:
+the dot tracker, the servo, the joint mapping, the robot driver's call and the JSON-lines log) on
+--frames pre-rendered 640x480 frames of dots: median, p99 and max in ms.
 """
 
 from __future__ import annotations
@@ -444,6 +448,114 @@ def _run_vision(frames, cv2, sim, vision) -> dict[str, Any]:
     return out
 
 
+def run_loop(frames: int = 300) -> dict[str, Any]:
+    """The servo loop's own overhead per frame (ms: median, p99, max), the source excluded: the dot tracker,
+    the servo, the joint mapping, the robot driver's call and the JSON-lines log, on 640x480 rendered dots
+    (rendered beforehand) of the gantry's general motion, through ibvs.loop.ServoLoop on the real clock."""
+    import cv2
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        return _run_loop(frames)
+    finally:
+        cv2.setNumThreads(threads)
+
+
+class _Frames:
+    """Pre-rendered images as a frame source (stamped at read: capture-to-command = the loop's own time)."""
+
+    def __init__(self, images, camera, clock):
+        self.images, self.camera, self.clock, self.rate, self.k, self.ended = images, camera, clock, 1e4, 0, False
+
+    def open(self):
+        pass
+
+    def read(self, timeout):
+        from .vision.sources import Frame
+
+        if self.k >= len(self.images):
+            self.ended = True
+            return None
+        self.k += 1
+        return Frame(self.images[self.k - 1], self.clock.now(), self.k - 1)
+
+    def close(self):
+        pass
+
+
+class _BenchRobot:
+    """A robot that takes every command at once (the driver call: the limit check of ibvs.robot when present)."""
+
+    def __init__(self, model, q0, clock):
+        self.kinematics, self.n_joints, self.rate, self.clock = model, model.dof, 1000.0, clock
+        self.q, self.dq = np.array(q0, dtype=float), np.zeros(model.dof)
+        try:
+            from .robot import JointState, Limits, check_command
+        except ImportError:
+            self.check = None
+        else:
+            n = model.dof
+            self.limits = Limits(np.full(n, -1e3), np.full(n, 1e3), np.full(n, 10.0), np.full(n, 1e3))
+            self.check = lambda dq, s: check_command(dq, JointState(s.q, s.dq, s.stamp), self.limits, 1e-3, None)
+
+    def connect(self):
+        pass
+
+    def state(self):
+        from types import SimpleNamespace
+
+        return SimpleNamespace(q=self.q, dq=self.dq, stamp=self.clock.now())
+
+    def send_joint_velocity(self, dq, state=None):
+        if self.check is not None:
+            self.check(dq, state if state is not None else self.state())
+        self.dq = np.asarray(dq)
+
+    def stop(self):
+        self.dq = np.zeros(self.n_joints)
+
+    def disconnect(self):
+        self.stop()
+
+
+def _run_loop(frames: int) -> dict[str, Any]:
+    import tempfile
+
+    from . import sim, vision
+    from .loop import RealClock
+    from .loop.servo_loop import LoopOptions, ServoLoop
+    from .ros.node import NodeParams, ServoNodeCore
+
+    case = sim.cases.gantry_general_motion()
+    cam, target, robot = case.camera, case.target, case.robot
+    poses = [robot.camera(case.start + (case.goal - case.start) * k / frames) for k in range(frames)]
+    renderer = vision.Renderer(cam, target, "dots", noise=1.0)
+    images = [renderer.render(p) for p in poses]
+    truth = [cam.project(_project(p, target)) for p in poses]
+    clock = RealClock()
+    params = NodeParams(desired_pixels=truth[-1], depth=0.6, scheme="polar", gain=1.0, initial_pixels=truth[0],
+                        output="joint_velocities", eMc=np.eye(4), joint_names=[f"j{i}" for i in range(6)],
+                        fps=cam.fps)
+    core = ServoNodeCore(params, clock=lambda: int(clock.now() * 1e9), jacobian=robot.jacobian)
+    core.set_camera(cam)
+    with tempfile.TemporaryDirectory() as tmp:
+        options = LoopOptions(rate=cam.fps, watchdog=10.0, log=f"{tmp}/loop.jsonl", signals=False)
+        report = ServoLoop(_Frames(images, cam, clock), _BenchRobot(robot, case.start, clock), core, clock,
+                           options).run()
+    t = np.asarray(report.timing.overhead) * 1e3
+    return {"frames": len(t), "image": f"{int(cam.width)}x{int(cam.height)}", "outcome": report.outcome,
+            "overhead_ms": {"median": float(np.median(t)), "p99": float(np.percentile(t, 99)),
+                            "max": float(t.max())}, "budget_ms": 1.0}
+
+
+def format_loop(res: dict[str, Any]) -> str:
+    o = res["overhead_ms"]
+    return (f"servo loop overhead per frame ({res['frames']} frames, {res['image']} dots; tracker + servo + joint "
+            f"mapping + driver call + log, the source excluded): median {o['median']:.3f} ms, p99 {o['p99']:.3f} ms, "
+            f"max {o['max']:.3f} ms (target: median <= {res['budget_ms']:g} ms)")
+
+
 def _cell(x, width: int, digits: int = 3) -> str:
     """A number, or n/a for None (not measured) or a non-finite value."""
     return f"{x:{width}.{digits}f}" if x is not None and math.isfinite(x) else f"{'n/a':>{width}}"
@@ -491,6 +603,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vision", action="store_true",
                    help="time the image loop (render, track, detect, servo, image episode; "
                         "needs the vision extra)")
+    p.add_argument("--loop", action="store_true",
+                   help="time the servo loop's own overhead per frame (ibvs.loop; needs the vision extra)")
     p.add_argument("--frames", type=number(2, 100000, integer=True), default=300,
                    help="frames per vision case (2 to 1e5; default 300)")
     return p
@@ -503,6 +617,10 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
         argv = argv[1:]
     args = build_parser().parse_args(argv)
+    if args.loop:
+        res = run_loop(args.frames)
+        print(json.dumps(res, allow_nan=False) if args.json else format_loop(res))
+        return 0
     if args.vision:
         res = run_vision(args.frames)
         print(json.dumps(res, allow_nan=False) if args.json else format_vision(res))

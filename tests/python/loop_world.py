@@ -15,7 +15,7 @@ from ibvs.loop.servo_loop import LoopOptions, ServoLoop
 from ibvs.ros.node import NodeParams, ServoNodeCore
 
 GOAL_Q = np.array(sim.cases.GANTRY_GOAL_Q)
-START_OFFSET = np.array([0.01, -0.01, 0.03, 0.05, -0.03, 0.25])  # joints: metres, radians
+START_OFFSET = sim.pose(t=(0.02, 0.02, 0.03), r=(0.03, -0.03, 0.3))  # the start, in the goal camera frame
 
 
 class RecordingRobot:
@@ -75,13 +75,14 @@ class RecordingRobot:
 
 
 def world(latency=0.0, drop=0.0, stop_after=None, start=None, noise=0.0):
-    """(clock, camera, target, robot model, goal pixels, start pixels, render-source factory)."""
+    """(clock, camera, target, robot model, goal pixels, start pixels...); start: the start camera pose in the
+    goal camera's frame (4x4)."""
     clock = SimClock()
     model = sim.Gantry.afma6()
     cam = ibvs.CameraModel.afma6()
     goal_pose = model.camera(GOAL_Q)
     target = sim.Target.square(0.1, goal_pose @ sim.pose(t=(0.0, 0.0, 0.6)))
-    q0 = GOAL_Q + (START_OFFSET if start is None else start)
+    q0 = sim.solve_ik(model, goal_pose @ (START_OFFSET if start is None else start), GOAL_Q).q
 
     def pixels(q):
         T_cw = np.linalg.inv(model.camera(q))
@@ -107,7 +108,7 @@ def core(w, gain=1.0, predictor=None, lost_timeout=0.2, scheme="polar"):
                         max_angular_speed=1.5, initial_pixels=w.start_pixels, output="joint_velocities",
                         eMc=np.eye(4), joint_names=[f"j{i}" for i in range(6)], lost_timeout=lost_timeout,
                         fps=w.camera.fps)
-    c = ServoNodeCore(params, clock=lambda: int(round(w.clock.now() * 1e9)), jacobian=w.model.camera_jacobian,
+    c = ServoNodeCore(params, clock=lambda: int(round(w.clock.now() * 1e9)), jacobian=w.model.jacobian,
                       predictor=predictor)
     c.set_camera(w.camera)
     return c

@@ -100,12 +100,17 @@ def test_renderer_source_latency_drops_and_death():
     src = lw.render_source(w, robot)
     f = src.read(1.0)
     assert f.index == 0 and f.stamp == 0.0 and w.clock.now() == pytest.approx(0.1)  # delivered 100 ms later
+    period = 1 / w.camera.fps
     f = src.read(1.0)
-    assert f.index == 1 and f.stamp == pytest.approx(1 / 30) and w.clock.now() == pytest.approx(0.1 + 1 / 30)
-    # the image is the pose at capture: the camera moving, frame k shows where it was at k / 30
-    robot.dq = np.array([0, 0, 0, 0, 0, 1.0])  # rad/s about the optical axis
-    f2 = src.read(1.0)  # captured at 2/30 (already in flight: before the motion began at 0.1 + 1/30)
-    assert f2.stamp == pytest.approx(2 / 30)
+    assert f.index == 1 and f.stamp == pytest.approx(period) and w.clock.now() == pytest.approx(0.1 + period)
+    # the image is the pose at capture: a frame in flight shows the camera where it was
+    before = src.renderer.render(w.model.camera(robot.q))
+    robot.dq = np.array([0, 0, 0, 0, 0, 1.0])  # rad/s about the optical axis, from now on
+    f2 = src.read(1.0)  # captured at 2 periods, before the motion began at 0.1 + 1 period
+    assert f2.stamp == pytest.approx(2 * period) and np.array_equal(f2.image, before)
+    while (f := src.read(1.0)).stamp < w.clock.now() - 0.1 - 1e-9 or f.stamp <= 0.1 + period:
+        pass  # the first frame captured after the motion began
+    assert not np.array_equal(f.image, before)
     # drops: indices skipped, the count near the probability
     w = lw.world(drop=0.5)
     src = lw.render_source(w, lw.RecordingRobot(w.clock, w.q0, w.model))

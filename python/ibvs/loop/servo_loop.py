@@ -228,7 +228,7 @@ class ServoLoop:
             now = clock.now()
             if now >= t_end:
                 raise _Stop("duration", f"ran {o.duration:g} s")
-            frame = self.source.read(min(period, max(0.0, t_end - now)))
+            frame = self.source.read(min(1.5 * period, max(0.0, t_end - now)))
             self._check_signal()
             if frame is None:
                 now = clock.now()
@@ -257,6 +257,10 @@ class ServoLoop:
             twist = core.twist_of_image(image, frame.stamp)
             cmd = self._command(twist, frame, state, log, report, timing=timing, t0=t0, image=image, bag=bag,
                                 rerun=rerun)
+            if core.state == "waiting" and clock.now() - t_start > o.watchdog:
+                log.write("event", t=clock.now(), what=f"features never found: {core.last_error}")
+                raise _Stop("lost", f"the features were not found within the watchdog's {o.watchdog:g} s "
+                                    f"({core.last_error})")
             if core.state == "stopped":
                 log.write("event", t=clock.now(), what=f"features lost: {core.last_error}")
                 raise _Stop("lost", f"features lost ({core.last_error}); ramped to zero")

@@ -8,7 +8,7 @@ predictor, in the order that moves nothing before everything is checked:
 
 The camera twist is mapped to joint velocities with the robot's kinematics model (Robot.kinematics: an
 ibvs.sim robot such as ibvs.sim.UrdfRobot or ibvs.sim.Gantry): JointMapping with the camera's own
-Jacobian, camera_jacobian(q) (camera twist = J(q) qdot).
+Jacobian, jacobian(q) (camera twist = J(q) qdot).
 """
 
 from __future__ import annotations
@@ -99,9 +99,9 @@ class Setup:
         if config.clock == "robot" and getattr(self.robot, "clock", None) is not None:
             self.clock = self.robot.clock  # the robot's world (a physics testbed) keeps the time
         self.kinematics = getattr(self.robot, "kinematics", None)
-        if self.kinematics is None or not hasattr(self.kinematics, "camera_jacobian"):
+        if self.kinematics is None or not hasattr(self.kinematics, "jacobian"):
             raise ValueError(f"{where} [robot]: the {doc['robot']['kind']!r} robot has no kinematics model "
-                             f"(camera_jacobian(q)): the loop cannot map the camera twist to its joints")
+                             f"(jacobian(q): the camera Jacobian): the loop cannot map the camera twist to its joints")
         src = doc["source"]
         self.target = _target(doc["target"], where) if src["kind"] == "render" else None
         if src["kind"] == "render" and self.camera is None:
@@ -168,7 +168,7 @@ class Setup:
         self.predictor = FeaturePredictor(o.latency, o.lag) if o.latency > 0 else None
         clock = self.clock
         core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),
-                             jacobian=lambda q: self.kinematics.camera_jacobian(q), predictor=self.predictor)
+                             jacobian=lambda q: self.kinematics.jacobian(q), predictor=self.predictor)
         core.set_camera(camera)
         return core
 
