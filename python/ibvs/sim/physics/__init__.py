@@ -14,8 +14,8 @@ images). See docs/physics.md.
 from __future__ import annotations
 
 from .adapters import MujocoCamera, MujocoRobot, PhysicsClock
-from .episode import PhysicsResult, overshoot, run
+from .episode import PhysicsResult, overshoot, run, run_loop
 from .world import INSTALL, World, mujoco_module, testbed_camera
 
 __all__ = ["INSTALL", "MujocoCamera", "MujocoRobot", "PhysicsClock", "PhysicsResult", "World", "mujoco_module",
-           "overshoot", "run", "testbed_camera"]
+           "overshoot", "run", "run_loop", "testbed_camera"]

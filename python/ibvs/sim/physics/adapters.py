@@ -135,7 +135,8 @@ class MujocoCamera(FrameSource):
         exposure = self._start + k / self.rate
         delivery = exposure + self.latency
         if delivery > now + timeout + 1e-12:
-            self.world.step_to(now + timeout)
+            # waited timeout (at least one physics step, so that a caller polling with tiny timeouts advances)
+            self.world.step_to(max(now + timeout, now + self.world.timestep))
             return None
         self.world.step_to(delivery)
         image = self.world.render(self.world.q_at(exposure))

@@ -22,7 +22,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..._core import JointMapping
+from ..._core import JointMapping, theta_u
 
 __all__ = ["PhysicsResult", "run", "run_loop", "overshoot"]
 
@@ -35,7 +35,9 @@ class PhysicsResult:
     outcome: "converged", "lost" (a dot not tracked) or "timeout"; frames_to_converge (-1: not);
     overshoot (see the module); tracking_rms / tracking_max: rad/s, joint velocity minus command over
     every physics step (RMS, largest); peak_torque (n,) N m, the largest |actuator torque| per joint;
-    effort (n,) the URDF's limits; final_translation_error (m) between the camera and its goal pose."""
+    effort (n,) the URDF's limits; final_translation_error (m) between the camera and its goal pose;
+    pose_error (run_loop only) (M, 6): the camera's pose in the goal camera's frame (t, theta u) each time the
+    world was stepped (each frame read and each wait of the loop)."""
 
     outcome: str
     frames_to_converge: int
@@ -50,6 +52,7 @@ class PhysicsResult:
     peak_torque: np.ndarray
     effort: np.ndarray
     final_translation_error: float
+    pose_error: Optional[np.ndarray] = None
 
     @property
     def converged(self) -> bool:
@@ -158,7 +161,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
 
 
 def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, duration: Optional[float] = None,
-             latency: float = 0.0, compensate: bool = False, lag: float = 0.0, tolerance_px: float = 0.5,
+             latency: float = 0.0, compensate: bool = False, lag: float = 0.0, tolerance_px: Optional[float] = 0.5,
              max_linear_speed: float = 1.0, max_angular_speed: float = 3.0, world=None) -> PhysicsResult:
     """`case` on the testbed through ibvs.loop's ServoLoop, the loop that drives real robots: MujocoCamera
     (frames delivered `latency` s after exposure) -> ibvs.ros.ServoNodeCore (the tracker, the servo of
@@ -169,6 +172,7 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
     ibvs.loop.latency.FeaturePredictor (the loop's latency compensation); False: the servo sees the delayed
     features. max_linear_speed, max_angular_speed: the servo's twist caps (m/s, rad/s). The result's
     arrays come from the loop's JSON-lines log (time: frame stamps; error: tracked - desired pixels).
+    tolerance_px None: run for `duration` (the outcome is then "timeout" unless something else ended it).
     """
     import json
     import os
@@ -218,7 +222,18 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
         core.set_camera(camera)
         options = LoopOptions(duration=duration, converge_px=tolerance_px, log=log, signals=False,
                               latency=latency if predictor is not None else 0.0, lag=lag)
-        report = ServoLoop(source, robot, core, clock, options, predictor).run()
+        inv_goal = np.linalg.inv(arm.camera(case.goal))
+        poses = []
+
+        def note(w):
+            E = inv_goal @ arm.camera(w.q)
+            poses.append(np.concatenate([E[:3, 3], theta_u(E[:3, :3])]))
+
+        world.listeners.append(note)
+        try:
+            report = ServoLoop(source, robot, core, clock, options, predictor).run()
+        finally:
+            world.listeners.remove(note)
         frames = [r for r in map(json.loads, open(log)) if r.get("kind", r.get("type")) == "frame"
                   or "pixels" in r]
         px = np.array([np.asarray(r["pixels"], dtype=float) for r in frames])
@@ -231,7 +246,7 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
         return PhysicsResult(outcome, first, np.array([r["stamp"] for r in frames]), error, np.zeros((0, n)),
                              np.zeros((0, n)), np.array([r["qdot"] for r in frames]), overshoot(error),
                              stats["tracking_rms"], stats["tracking_max"], stats["peak_torque"],
-                             world.effort.copy(), float(np.linalg.norm(T_err[:3, 3])))
+                             world.effort.copy(), float(np.linalg.norm(T_err[:3, 3])), np.array(poses))
     finally:
         if own:
             world.close()

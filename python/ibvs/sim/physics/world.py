@@ -244,6 +244,8 @@ class World:
         self._scratch = mujoco.MjData(m)  # for rendering a past state
         self._renderer = None
         self._stats: Optional[np.ndarray] = None
+        #: callables listener(world), each called after every step_to that stepped (a recorder's hook)
+        self.listeners: list = []
         self._history = np.zeros((max(2, int(round(history / timestep)) + 1), n + 1))
         self.reset(q_ref)
 
@@ -294,10 +296,11 @@ class World:
 
     # -- time --
     def step_to(self, t: float) -> None:
-        """Step the physics until the time reaches t (to within half a step); nothing when t is past."""
+        """Step the physics until the time reaches t (the first step at or past it, to within 1e-6 of a step);
+        nothing when t is past."""
         if not np.isfinite(t):
             raise ValueError(f"t must be finite, got {t!r}")
-        n = int(np.floor((t - self.data.time) / self.timestep + 0.5))
+        n = int(np.ceil((t - self.data.time) / self.timestep - 1e-6))
         for _ in range(max(n, 0)):
             self.mujoco.mj_step(self.model, self.data)
             self._steps += 1
@@ -309,6 +312,9 @@ class World:
                 st[1] += err @ err
                 st[2] = max(st[2], np.abs(err).max())
                 np.maximum(st[3:], np.abs(self.data.qfrc_actuator[self._vadr]), out=st[3:])
+        if n > 0:
+            for listener in self.listeners:
+                listener(self)
 
     def monitor(self, on: bool) -> dict:
         """Start (on: True) or stop watching every physics step: the joint velocity tracking error (velocity
