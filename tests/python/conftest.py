@@ -10,6 +10,10 @@ from hypothesis import HealthCheck, settings
 
 import ibvs
 
+# MuJoCo picks its OpenGL backend when first imported (by any test module, e.g. franky-sim's): headless OSMesa
+# unless the environment says otherwise, as ibvs.sim.physics does (Debian: apt-get install libosmesa6).
+os.environ.setdefault("MUJOCO_GL", "osmesa")
+
 # Property tests (hypothesis): the same examples on every run by default, so that CI is reproducible and a
 # failure is seen again; IBVS_HYPOTHESIS=explore draws new random examples (10 times as many) to hunt for
 # more (a test's own @settings(max_examples=...) keeps its count).
