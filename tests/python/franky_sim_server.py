@@ -20,7 +20,8 @@ def start(timeout: float = 120.0):
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                             start_new_session=True)
     lines: "queue.Queue[str]" = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(line) for line in proc.stdout], daemon=True).start()
+    proc.reader = threading.Thread(target=lambda: [lines.put(line) for line in proc.stdout], daemon=True)
+    proc.reader.start()
     seen = []
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -42,3 +43,5 @@ def stop(proc) -> None:
     if proc.poll() is None:
         proc.kill()
     proc.wait(timeout=30)
+    proc.reader.join(timeout=10)  # it ends at the pipe's end of file
+    proc.stdout.close()

@@ -7,6 +7,8 @@ loaded machine gives the same result."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -57,7 +59,8 @@ def test_open_robot_makes_a_franky_robot():
     assert r.limits.q_max[3] < 0 and r.hold == pytest.approx(3 / 50)
     for kw, name in [({"host": ""}, "host"), ({"clock": "wall"}, "clock"), ({"hold": 0.001}, "hold"),
                      ({"relative_dynamics_factor": 2.0}, "relative_dynamics_factor"), ({"model": "ur5"}, "model"),
-                     ({"limits": Limits([0], [1], [1], [1])}, "limits"), ({"stale_after": 0}, "stale_after")]:
+                     ({"limits": Limits([0], [1], [1], [1])}, "limits"), ({"stale_after": 0}, "stale_after"),
+                     ({"connect_timeout": -1.0}, "connect_timeout")]:
         with pytest.raises(ValueError, match=name):
             FrankyRobot(**kw)
 
@@ -85,7 +88,7 @@ def test_franky_sim_moves_the_joints_as_commanded_and_stops(robot):
     assert moving.dq[0] == pytest.approx(dq[0], rel=0.2)  # joint 0 reached its speed (joint 6 chatters)
 
 
-def test_franky_limits_clamp_or_refuse_and_never_send(robot, server):
+def test_franky_limits_clamp_or_refuse_and_never_send(robot):
     # beyond dq_max: scaled with the direction kept, what reached the robot within dq_max
     fast = np.array([5.0, 0, 0, 0, 0, 0, 2.5])
     cmds = run(robot, fast, 0.1)
@@ -96,16 +99,24 @@ def test_franky_limits_clamp_or_refuse_and_never_send(robot, server):
     # a command that would pass joint 0's position limit within one period: refused, nothing sent
     tight = Limits(np.r_[s.q[0] - 0.5, robot.limits.q_min[1:]], np.r_[s.q[0] + 0.001, robot.limits.q_max[1:]],
                    robot.limits.dq_max, robot.limits.ddq_max)
-    r = FrankyRobot(server[1], limits=tight, rate=RATE, clock="robot")
-    with r:
-        before = r.state()
-        with pytest.raises(LimitError, match="joint 0"):
-            r.send_joint_velocity([0.1, 0, 0, 0, 0, 0, 0])
-        with pytest.raises(ValueError, match=r"dq\[2\]"):
-            r.send_joint_velocity([0, 0, np.nan, 0, 0, 0, 0])
-        after = settle(r, 0.2)
-        assert r.last_command is None
-        assert np.abs(after.q - before.q).max() < 1e-3
+    robot.limits = tight
+    before = robot.state()
+    with pytest.raises(LimitError, match="joint 0"):
+        robot.send_joint_velocity([0.1, 0, 0, 0, 0, 0, 0])
+    last = robot.last_command
+    with pytest.raises(ValueError, match=r"dq\[2\]"):
+        robot.send_joint_velocity([0, 0, np.nan, 0, 0, 0, 0])
+    after = settle(robot, 0.2)
+    assert robot.last_command is last  # neither was sent
+    assert np.abs(after.q - before.q).max() < 1e-3
+
+
+def test_a_busy_robot_times_out_with_one_line(server, robot):
+    # franky-sim serves one client: a second one gets no answer (as a robot another PC controls)
+    other = FrankyRobot(server[1], rate=RATE, connect_timeout=2.0)
+    with pytest.raises(RobotError, match="no answer within 2 s"):
+        other.connect()
+    assert not other.connected
 
 
 def test_franky_sim_killed_mid_run_is_noticed_within_one_period():
@@ -116,9 +127,7 @@ def test_franky_sim_killed_mid_run_is_noticed_within_one_period():
         run(r, np.array([0.05, 0, 0, 0, 0, 0, 0]), 0.2)
     finally:
         franky_sim_server.stop(proc)
-    # the next read (or send) is at least one period later in any loop: the state has not changed since
-    r.clock = type("Wall", (), {"now": staticmethod(lambda: 0.0)})()  # the robot's clock is gone with it
-    import time
+    # the next read (or send) comes one period later in a loop: the robot's state has not changed since
     time.sleep(1.0 / RATE)
     with pytest.raises(RobotError, match="no new state from the robot .* the link is lost"):
         r.state()

@@ -15,6 +15,7 @@ tests/python/test_robot_franky.py; never run here against a real arm.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from typing import Any, Optional
 
@@ -67,26 +68,18 @@ def _franky():
 class FrankyClock:
     """The robot's own clock (libfranka's RobotState.time, s) as a Clock: a loop on it runs at the robot's
     pace, which is what a simulated arm (franky-sim slower than real time on a loaded machine) needs.
-    sleep_until(t) polls until the robot's time reaches t; RobotError when it stops advancing for `stall`
-    wall-clock seconds (the robot or its server is gone)."""
+    sleep_until(t) polls until the robot's time reaches t; RobotError when it stops advancing for the
+    robot's stale_after (the robot or its server is gone)."""
 
-    def __init__(self, robot: "FrankyRobot", stall: float = 1.0) -> None:
+    def __init__(self, robot: "FrankyRobot") -> None:
         self.robot = robot
-        self.stall = float(stall)
 
     def now(self) -> float:
-        return self.robot._robot_time()
+        return self.robot.robot_time()
 
     def sleep_until(self, t: float) -> None:
-        last, since = self.now(), time.monotonic()
-        while last < t:
-            time.sleep(min(0.001, max(t - last, 0.0)))
-            now = self.now()
-            if now > last:
-                last, since = now, time.monotonic()
-            elif time.monotonic() - since > self.stall:
-                raise RobotError(f"{self.robot.name}: the robot's clock stopped at {last:.3f} s for "
-                                 f"{self.stall:g} s (robot or server gone)")
+        while self.robot.robot_time() < t:  # raises when the time stalls
+            time.sleep(0.0005)
 
 
 class FrankyRobot(Robot):
@@ -101,13 +94,16 @@ class FrankyRobot(Robot):
     how long stop() waits for the braking motion. stale_after: the link is declared lost (RobotError) when
     the robot's state has not changed for this long on the wall clock (s, default one period): libfranka
     itself notices a dead server only after its ~1 s network timeout, and keeps returning the last state
-    until then. kinematics, dry_run: as Robot's.
+    until then. connect_timeout: how long connect() waits for the robot to answer (s; libfranka itself
+    waits for ever on a robot that accepts the connection but does not answer, e.g. one another client
+    controls). kinematics, dry_run: as Robot's.
     """
 
     def __init__(self, host: str = "127.0.0.1", model: str = "fr3", limits: Optional[Limits] = None,
                  rate: float = 100.0, hold: Optional[float] = None, relative_dynamics_factor: float = 1.0,
                  clock: Any = None, realtime: bool = False, stop_timeout: float = 2.0,
-                 stale_after: Optional[float] = None, kinematics: Any = None, dry_run: bool = False) -> None:
+                 stale_after: Optional[float] = None, connect_timeout: float = 10.0, kinematics: Any = None,
+                 dry_run: bool = False) -> None:
         if not isinstance(host, str) or not host:
             raise ValueError(f"host must be the robot's address, got {host!r}")
         if not (isinstance(relative_dynamics_factor, (int, float)) and 0 < relative_dynamics_factor <= 1):
@@ -134,6 +130,9 @@ class FrankyRobot(Robot):
         if not (isinstance(stale_after, (int, float)) and math.isfinite(stale_after) and stale_after > 0):
             raise ValueError(f"stale_after must be a time > 0 (s), got {stale_after!r}")
         self.stale_after = float(stale_after)
+        if not (isinstance(connect_timeout, (int, float)) and math.isfinite(connect_timeout) and connect_timeout > 0):
+            raise ValueError(f"connect_timeout must be a time > 0 (s), got {connect_timeout!r}")
+        self.connect_timeout = float(connect_timeout)
         self._robot: Any = None
         self._moving = False  # a motion was started and not stopped since
         self._lost = False  # the link was declared lost: stop() sends nothing more
@@ -145,25 +144,31 @@ class FrankyRobot(Robot):
     def _connect(self) -> None:
         franky = _franky()
         config = franky.RealtimeConfig.Enforce if self.realtime else franky.RealtimeConfig.Ignore
-        try:
-            self._robot = franky.Robot(self.host, relative_dynamics_factor=self.relative_dynamics_factor,
-                                       realtime_config=config)
-        except Exception as e:
-            raise self._fail("cannot connect", e) from None
+        made: dict = {}
+
+        def make() -> None:  # in a thread: libfranka's connect has no timeout of its own
+            try:
+                made["robot"] = franky.Robot(self.host, relative_dynamics_factor=self.relative_dynamics_factor,
+                                             realtime_config=config)
+            except Exception as e:
+                made["error"] = e
+
+        worker = threading.Thread(target=make, name=f"connect {self.host}", daemon=True)
+        worker.start()
+        worker.join(self.connect_timeout)
+        if worker.is_alive():  # left to finish or fail on its own; its robot, if any, is never used
+            raise RobotError(f"{self.name}: cannot connect: no answer within {self.connect_timeout:g} s")
+        if "error" in made:
+            raise self._fail("cannot connect", made["error"])
+        self._robot = made["robot"]
         self._moving = self._lost = False
         self._seen = (math.nan, 0.0)
 
-    def _robot_time(self) -> float:
-        """The robot's time (s) from its latest state; RobotError when it cannot be read."""
+    def robot_time(self) -> float:
+        """The robot's time (s) from its latest state. RobotError when it cannot be read, a motion failed, or
+        the time has not changed for stale_after seconds on the wall clock (the link is lost)."""
         if self._robot is None:
             raise RobotError(f"{self.name}: not connected")
-        try:
-            return float(self._robot.state.time.to_sec())
-        except Exception as e:
-            raise self._fail("reading the robot's time", e) from None
-
-    def _alive(self) -> None:
-        """RobotError if the link was lost, a motion failed, or the robot's state is stale (stale_after)."""
         if self._lost:
             raise RobotError(f"{self.name}: the link to the robot was lost")
         try:
@@ -180,9 +185,10 @@ class FrankyRobot(Robot):
             self._lost = True
             raise RobotError(f"{self.name}: no new state from the robot for {wall - self._seen[1]:.3f} s "
                              f"(> stale_after {self.stale_after:g} s): the link is lost")
+        return t_robot
 
     def _read_state(self) -> JointState:
-        self._alive()
+        self.robot_time()  # the link is alive
         try:
             js = self._robot.current_joint_state
             q, dq = np.array(js.position, dtype=float), np.array(js.velocity, dtype=float)
@@ -193,7 +199,7 @@ class FrankyRobot(Robot):
 
     def _send(self, dq: np.ndarray) -> None:
         franky = _franky()
-        self._alive()
+        self.robot_time()  # the link is alive
         try:
             motion = franky.JointVelocityMotion(dq, duration=franky.Duration(int(round(self.hold * 1000))))
             self._robot.move(motion, asynchronous=True)
