@@ -232,3 +232,5 @@ def test_open_robot_names_the_kinds():
     with pytest.raises(ValueError, match="robot kind must be one of .*franky"):
         rb.open_robot("kuka")
     assert set(rb.ROBOTS) >= {"sim", "franky", "ur", "ros2_control", "mujoco"}
+    with pytest.raises(ValueError, match="robot kind 'ur': unknown option.s. q0 .its options: host, model"):
+        rb.open_robot("ur", q0=[0.0] * 6)

@@ -6,7 +6,9 @@ Sections (docs/servo-loop.md has every key; docs/servo.toml is a complete exampl
   [source]   kind = "render" (the simulator's renderer at the robot's camera pose; its [target]),
              "video" (a file replayed at its rate), "capture" (OpenCV VideoCapture: device index, file or
              GStreamer pipeline), "bag" (a ROS 2 bag's images) or "mujoco" (the physics testbed's camera,
-             ibvs.sim.physics.MujocoCamera of the mujoco robot's world); latency, drop (render)
+             ibvs.sim.physics.MujocoCamera of the mujoco robot's world) or "franky_scene" (a camera on the
+             FR3's hand in franky-sim's own MuJoCo scene, the franky robot's joints: ibvs.robot.franky_scene);
+             latency, drop (render)
   [target]   the rendered target (render): points, pose = { t = [...], r_deg = [...] }, as scenario files
   [tracker]  kind = "dots" or "tag", desired_pixels, initial_pixels, tag_ids
   [servo]    scheme, gain, depth, damping, max_linear_speed, max_angular_speed, max_joint_speed,
@@ -37,7 +39,7 @@ __all__ = ["LOOP_KEYS", "SECTIONS", "SOURCE_KINDS", "LoopConfig", "load", "loop_
 #: The sections of a config file.
 SECTIONS = ("camera", "source", "target", "tracker", "servo", "robot", "loop")
 #: The frame sources a config can name.
-SOURCE_KINDS = ("render", "video", "capture", "bag", "mujoco")
+SOURCE_KINDS = ("render", "video", "capture", "bag", "mujoco", "franky_scene")
 #: The keys of [loop] (LoopOptions' fields, the clock, the signals handled always by the command).
 LOOP_KEYS = tuple(f.name for f in fields(LoopOptions) if f.name != "signals") + ("clock",)
 #: The clocks [loop] clock can name.
@@ -48,7 +50,8 @@ _SOURCE_KEYS = {"render": ("kind", "render", "latency", "drop", "seed", "dot_rad
                 "video": ("kind", "path", "rate"),
                 "capture": ("kind", "device", "width", "height", "fps"),
                 "bag": ("kind", "path", "image_topic", "camera_info_topic", "replay"),
-                "mujoco": ("kind", "rate", "latency")}
+                "mujoco": ("kind", "rate", "latency"),
+                "franky_scene": ("kind", "rate", "dot_radius")}
 _TRACKER_KEYS = ("kind", "desired_pixels", "initial_pixels", "tag_ids")
 _SERVO_KEYS = ("scheme", "gain", "depth", "damping", "max_linear_speed", "max_angular_speed", "max_joint_speed",
                "lost_timeout")
@@ -204,8 +207,8 @@ def load(path) -> LoopConfig:
                              f"{dev!r}")
     for key, lo, hi in (("latency", 0, 10), ("drop", 0, 0.99), ("rate", 0, 1e4), ("noise", 0, 255), ("blur", 0, 100)):
         _number(src, key, f"{where} [source]", lo, hi, open_lo=key == "rate")
-    if kind == "render" and "target" not in doc:
-        raise ValueError(f"{where}: a render source needs a [target] table (points, pose)")
+    if kind in ("render", "franky_scene") and "target" not in doc:
+        raise ValueError(f"{where}: a {kind} source needs a [target] table (points, pose)")
     if kind in ("video", "capture") and "camera" not in doc:
         raise ValueError(f"{where}: a {kind} source needs a [camera] table (the camera's intrinsics)")
     tr = doc["tracker"]

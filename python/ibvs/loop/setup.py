@@ -101,6 +101,18 @@ def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, po
         if robot is None or getattr(robot, "world", None) is None:
             raise ValueError(f"{where}: a mujoco source needs the mujoco robot ([robot] kind = \"mujoco\")")
         return MujocoCamera(robot.world, rate=t.get("rate"), latency=float(t.get("latency", 0.0)))
+    if kind == "franky_scene":  # franky-sim's own MuJoCo scene, a camera on the FR3's hand (ibvs.robot.franky_scene)
+        from ..robot.franky_scene import FrankyScene, FrankySceneSource
+
+        if robot is None or getattr(robot, "kinematics", None) is None or camera is None or target is None:
+            raise ValueError(f"{where}: a franky_scene source needs [camera], [target] and the franky robot with its "
+                             "kinematics (urdf = \"franky-sim\", mount)")
+        try:
+            scene = FrankyScene(robot.kinematics, camera, target.points, target.pose,
+                                **({"dot_radius": float(t["dot_radius"])} if "dot_radius" in t else {}))
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{where}: {e}") from None
+        return FrankySceneSource(robot, scene, rate=t.get("rate"))
     if kind == "bag":
         t.setdefault("replay", True)  # at the recorded pace, on the loop's clock
         return sources.RosImageSource(base / t.pop("path"), clock=clock, **t)
@@ -133,9 +145,9 @@ class Setup:
             raise ValueError(f"{where} [robot]: the {doc['robot']['kind']!r} robot has no kinematics model "
                              f"(jacobian(q): the camera Jacobian): the loop cannot map the camera twist to its joints")
         src = doc["source"]
-        self.target = _target(doc["target"], where) if src["kind"] == "render" else None
-        if src["kind"] == "render" and self.camera is None:
-            raise ValueError(f"{where}: a render source needs a [camera] table")
+        self.target = _target(doc["target"], where) if src["kind"] in ("render", "franky_scene") else None
+        if src["kind"] in ("render", "franky_scene") and self.camera is None:
+            raise ValueError(f"{where}: a {src['kind']} source needs a [camera] table")
         self.source = open_source(src["kind"], src, self.camera, self.clock, base, pose=self._camera_pose,
                                   target=self.target, where=f"{where} [source]", robot=self.robot)
         self.core = None

@@ -65,6 +65,29 @@ def _franky():
     return franky
 
 
+def _urdf_kinematics(urdf: str, frame: str, mount: Any):
+    """An ibvs.sim.UrdfRobot of the arm's URDF ("franky-sim": franky-sim's FR3) with the camera at `mount`."""
+    from .. import sim
+
+    if urdf == "franky-sim":
+        from .franky_scene import franky_sim_urdf
+
+        urdf = franky_sim_urdf()
+    if mount is None:
+        eMc = np.eye(4)
+    elif isinstance(mount, dict):
+        unknown = set(mount) - {"t", "r", "r_deg"}
+        if unknown or ("r" in mount and "r_deg" in mount):
+            raise ValueError(f"mount must be {{t = [x, y, z], r = [rx, ry, rz]}} (or r_deg), got keys {sorted(mount)}")
+        if "r_deg" in mount:
+            eMc = sim.pose(mount.get("t", (0, 0, 0)), mount["r_deg"], degrees=True)
+        else:
+            eMc = sim.pose(mount.get("t", (0, 0, 0)), mount.get("r", (0, 0, 0)))
+    else:
+        eMc = np.asarray(mount, dtype=float)
+    return sim.UrdfRobot(urdf, frame, eMc)
+
+
 class FrankyClock:
     """The robot's own clock (libfranka's RobotState.time, s) as a Clock: a loop on it runs at the robot's
     pace, which is what a simulated arm (franky-sim slower than real time on a loaded machine) needs.
@@ -96,18 +119,27 @@ class FrankyRobot(Robot):
     itself notices a dead server only after its ~1 s network timeout, and keeps returning the last state
     until then. connect_timeout: how long connect() waits for the robot to answer (s; libfranka itself
     waits for ever on a robot that accepts the connection but does not answer, e.g. one another client
-    controls). kinematics, dry_run: as Robot's.
+    controls). kinematics: as Robot's, or built from urdf (a path, or "franky-sim": franky-sim's FR3 URDF), frame
+    (the flange, default "link8" of franky-sim's URDF) and mount (flange <- camera: a (4, 4) pose or a table
+    {t = [x, y, z], r = [rotation vector, rad]} or r_deg), as an ibvs.sim.UrdfRobot (Pinocchio). dry_run: as
+    Robot's.
     """
 
     def __init__(self, host: str = "127.0.0.1", model: str = "fr3", limits: Optional[Limits] = None,
                  rate: float = 100.0, hold: Optional[float] = None, relative_dynamics_factor: float = 1.0,
                  clock: Any = None, realtime: bool = False, stop_timeout: float = 2.0,
                  stale_after: Optional[float] = None, connect_timeout: float = 10.0, kinematics: Any = None,
-                 dry_run: bool = False) -> None:
+                 urdf: Optional[str] = None, frame: str = "link8", mount: Any = None, dry_run: bool = False) -> None:
         if not isinstance(host, str) or not host:
             raise ValueError(f"host must be the robot's address, got {host!r}")
         if not (isinstance(relative_dynamics_factor, (int, float)) and 0 < relative_dynamics_factor <= 1):
             raise ValueError(f"relative_dynamics_factor must be in (0, 1], got {relative_dynamics_factor!r}")
+        if urdf is not None:
+            if kinematics is not None:
+                raise ValueError("kinematics and urdf: give one")
+            kinematics = _urdf_kinematics(urdf, frame, mount)
+        elif mount is not None:
+            raise ValueError("mount is the camera's on the flange of `urdf`: give urdf too")
         lim = franka_limits(model) if limits is None else limits
         if lim.n != 7:
             raise ValueError(f"limits must be for 7 joints, got {lim.n}")
