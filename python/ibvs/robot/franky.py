@@ -121,7 +121,7 @@ class FrankyRobot(Robot):
     waits for ever on a robot that accepts the connection but does not answer, e.g. one another client
     controls). kinematics: as Robot's, or built from urdf (a path, or "franky-sim": franky-sim's FR3 URDF), frame
     (the flange, default "link8" of franky-sim's URDF) and mount (flange <- camera: a (4, 4) pose or a table
-    {t = [x, y, z], r = [rotation vector, rad]} or r_deg), as an ibvs.sim.UrdfRobot (Pinocchio). dry_run: as
+    {t = [x, y, z], r = [rx, ry, rz]} in rad, R = Rx Ry Rz as ibvs.sim.pose, or r_deg), as an ibvs.sim.UrdfRobot (Pinocchio). dry_run: as
     Robot's.
     """
 

@@ -3,7 +3,7 @@ FrankyRobot on franky-sim end to end (`ibvs servo` with [source] kind = "franky_
 
 franky-sim steps its MuJoCo scene inside its server process and renders nothing; FrankyScene builds the same
 scene here, with franky-sim's own code (franky_sim.mujoco_simulator.MujocoSimulator and add_robot(), as its
-server does), adds a camera on the FR3's hand and a target plane of dark dots through franky-sim's documented
+server does), adds a camera on the FR3's hand and a target plane of bright dots (what ibvs.vision.DotTracker tracks) through franky-sim's documented
 scene-extension hook (elements appended to MujocoSimulator.worldbody before start), and renders it with the
 FR3's joints set each frame from the robot's state read through franky (FrankySceneSource). Nothing is
 stepped here: the arm's motion is franky-sim's.
@@ -63,7 +63,7 @@ def _fmt(x) -> str:
 
 
 class FrankyScene:
-    """franky-sim's FR3 scene with a hand camera and a target of dark dots (see the module docstring).
+    """franky-sim's FR3 scene with a hand camera and a black target plane of white dots (module docstring).
 
     kinematics: the FR3's UrdfRobot on franky-sim's URDF (frame link8) whose mount (flange <- camera, eMc) places
     the camera. camera: a pinhole ibvs.CameraModel with its principal point centred (ibvs.sim.physics's
@@ -116,10 +116,10 @@ class FrankyScene:
                              quat=_fmt(_quat(T_wo[:3, :3])))
         # the plane's visible face towards the camera (the target's -z side: the camera looks along +z at it)
         ET.SubElement(body, "geom", name="ibvs_plane", type="box", size=f"{plane} {plane} 0.0005", pos="0 0 0.001",
-                      material="ibvs_white", contype="0", conaffinity="0", mass="0")
+                      material="ibvs_black", contype="0", conaffinity="0", mass="0")
         for k, p in enumerate(P):
             ET.SubElement(body, "geom", name=f"ibvs_dot{k}", type="cylinder", size=f"{dot_radius} 0.0002",
-                          pos=_fmt([p[0], p[1], -0.0002]), material="ibvs_black", contype="0", conaffinity="0",
+                          pos=_fmt([p[0], p[1], -0.0002]), material="ibvs_white", contype="0", conaffinity="0",
                           mass="0")
         for light in sim.worldbody.iter("light"):
             light.set("castshadow", "false")  # no shadow of the arm on the target
