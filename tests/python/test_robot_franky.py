@@ -156,3 +156,20 @@ def test_franka_limits():
     for kw in ({"model": "kuka"}, {"margin": 2.0}, {"speed_factor": 0.0}, {"acceleration_factor": 1.5}):
         with pytest.raises(ValueError):
             franka_limits(**kw)
+
+
+def test_ibvs_servo_with_no_robot_at_the_address_is_one_line_and_status_2(tmp_path, capsys):
+    from pathlib import Path
+
+    from ibvs.cli.main import main
+
+    text = (Path(__file__).resolve().parents[2] / "docs/servo.toml").read_text()
+    text = text.replace('kind = "sim"', 'kind = "franky"\nhost = "127.251.13.8"\nurdf = "franky-sim"')
+    text = "\n".join(line for line in text.splitlines() if not line.startswith(("model =", "q0 =")))
+    cfg = tmp_path / "servo.toml"
+    cfg.write_text(text)
+    with pytest.raises(SystemExit) as e:
+        main(["servo", str(cfg)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert e.value.code == 2 and len(err) == 1, err
+    assert err[0].startswith("ibvs servo: error:") and "cannot connect" in err[0] and "127.251.13.8" in err[0]
