@@ -88,6 +88,13 @@ def test_franky_sim_moves_the_joints_as_commanded_and_stops(robot):
     assert moving.dq[0] == pytest.approx(dq[0], rel=0.2)  # joint 0 reached its speed (joint 6 chatters)
 
 
+def test_franky_arm_stops_by_itself_when_commands_stop(robot):
+    """No stop(), no more commands: each motion holds its velocity for `hold` (3 periods), then the arm stops."""
+    run(robot, np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.1, 0.0]), 0.2)
+    s1 = settle(robot, robot.hold + 0.3)
+    assert np.abs(settle(robot, 0.2).q - s1.q).max() < 1e-3
+
+
 def test_franky_limits_clamp_or_refuse_and_never_send(robot):
     # beyond dq_max: scaled with the direction kept, what reached the robot within dq_max
     fast = np.array([5.0, 0, 0, 0, 0, 0, 2.5])
