@@ -163,7 +163,7 @@ def latency(args) -> None:
             for compensate in (False, True):
                 for g in args.gains:
                     duration = min(10.0, max(2.0, 7.0 / g)) + d / 1e3
-                    r = physics.run_loop(case, "polar", float(g), camera=camera, duration=duration, latency=d / 1e3,
+                    r = physics.run_loop(case, args.scheme, float(g), camera=camera, duration=duration, latency=d / 1e3,
                                          compensate=compensate, lag=args.lag if compensate else 0.0,
                                          tolerance_px=None, world=world)
                     final = float(np.linalg.norm(r.error[-1].reshape(-1, 2), axis=1).max()) if len(r.error) else \
@@ -175,6 +175,7 @@ def latency(args) -> None:
                     if args.verbose:
                         print(runs[-1], flush=True)
     res = {"gains": list(args.gains), "delays_ms": list(args.delays), "size": args.size, "lag": args.lag,
+           "scheme": args.scheme,
            "runs": runs}
     if args.json:
         with open(args.json, "w") as f:
@@ -195,7 +196,8 @@ def latency_table(res) -> str:
     def span(gs):
         return f"{min(gs):g} – {max(gs):g}" if gs else "none"
 
-    lines = ["| delay (ms) | testbed, uncompensated: gains (1/s) | testbed, compensated: gains (1/s) |",
+    lines = [f"| delay (ms) | testbed {res.get('scheme', 'polar')}, uncompensated: gains (1/s) "
+             f"| testbed {res.get('scheme', 'polar')}, compensated: gains (1/s) |",
              "|---:|---|---|"]
     for d in res["delays_ms"]:
         lines.append(f"| {d:g} | {span(spans[(d, False)])} | {span(spans[(d, True)])} |")
@@ -218,6 +220,7 @@ def main() -> None:
     lat.add_argument("--size", default="320x240")
     lat.add_argument("--delays", type=float, nargs="+", default=[0, 25, 50, 75, 100, 125, 150], metavar="MS")
     lat.add_argument("--gains", type=float, nargs="+", default=list(GAINS))
+    lat.add_argument("--scheme", default="polar", choices=("polar", "cartesian"))
     lat.add_argument("--lag", type=float, default=0.0, help="the robot's velocity lag given to the predictor (s)")
     lat.add_argument("--json", help="write the runs there")
     lat.add_argument("--verbose", action="store_true")
