@@ -76,9 +76,9 @@ def through_loop(case, scheme: str, gain: float, camera, duration: float) -> dic
 def compare(args) -> None:
     w, h = (int(x) for x in args.size.split("x"))
     camera = physics.testbed_camera(w, h, fps=30.0)
-    print(f"camera {w}x{h} at 30 fps, gain {args.gain}, tolerance 0.5 px, exact depth, {args.duration} s at most\n")
-    print("| case | scheme | sim | outcome | frames to converge | overshoot | joint tracking RMS (rad/s) "
-          "| peak torque / limit (worst joint) | final camera error (mm) |")
+    print(f"camera {w}x{h} at 30 fps, gain {args.gain}, tolerance 0.5 px, {args.duration} s at most\n")
+    print("| case | scheme | run | outcome | frames | overshoot | tracking RMS (rad/s) | peak torque / limit "
+          "| camera error (mm) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for case, scheme in cases(args.cases):
         runs = (("kinematic", kinematic), ("physics", dynamic))
