@@ -90,8 +90,8 @@ SHRINK = {
     ("docs/physics.md", "physics.py compare"): [
         ("--size 320x240 --duration 15", "--size 160x120 --duration 1 --cases general")],
     ("docs/physics.md", "physics.py latency"): [
-        ("--size 320x240 --json docs/figures/physics_latency.json", "--size 160x120 --delays 50 --gains 2"),
-        ("--size 320x240 --json docs/figures/physics_latency_cartesian.json", "--size 160x120 --delays 50 --gains 2")],
+        ("--json docs/figures/physics_latency.json", "--size 160x120 --delays 50 --gains 2"),
+        ("--json docs/figures/physics_latency_cartesian.json", "--size 160x120 --delays 50 --gains 2")],
     ("docs/physics.md", "physics.py bench"): [("--seconds 5", "--seconds 0.2")],
 }
 
