@@ -111,6 +111,9 @@ class MujocoCamera(FrameSource):
             raise ValueError(f"rate must be a positive number (Hz), got {rate!r}")
         if isinstance(latency, bool) or not isinstance(latency, (int, float)) or not 0 <= latency < 60:
             raise ValueError(f"latency must be a number of seconds in [0, 60), got {latency!r}")
+        if latency > world.history - 2.0 / self.rate:
+            raise ValueError(f"latency {latency!r} s: the world keeps {world.history:g} s of the past; build it with "
+                             f"World(..., history=) longer than the latency plus two frames")
         self.latency = float(latency)
         self._start = start
         self._next = 0

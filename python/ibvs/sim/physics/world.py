@@ -334,11 +334,16 @@ class World:
         row[0] = self.data.time
         row[1:] = self.data.qpos[self._qadr]
 
+    @property
+    def history(self) -> float:
+        """Seconds of past joint positions kept (q_at reaches that far back)."""
+        return (len(self._history) - 1) * self.timestep
+
     def q_at(self, t: float) -> np.ndarray:
         """The joints at time t (the last step at or before t; ValueError beyond the kept history)."""
         k = self._steps - int(np.ceil((self.data.time - t) / self.timestep - 1e-6))
         if k > self._steps or k < 0 or k < self._steps - len(self._history) + 1:
-            raise ValueError(f"t = {t!r} is outside the kept history [{self.data.time - (len(self._history) - 1) * self.timestep:g}, "
+            raise ValueError(f"t = {t!r} is outside the kept history [{self.data.time - self.history:g}, "
                              f"{self.data.time:g}] s")
         return self._history[k % len(self._history), 1:].copy()
 
