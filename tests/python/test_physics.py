@@ -14,6 +14,7 @@ pytest.importorskip("pinocchio", reason="the robots extra (pin) is not installed
 pytest.importorskip("cv2", reason="the vision extra (OpenCV) is not installed")
 
 import ibvs  # noqa: E402
+import ibvs.loop  # noqa: E402
 import ibvs.robot  # noqa: E402
 from ibvs import sim  # noqa: E402
 from ibvs.sim import physics  # noqa: E402
@@ -197,6 +198,24 @@ def test_mujoco_robot_checks_every_command(panda_world):
     assert not world.commanded.any() and not robot.connected  # leaving the block stops it
 
 
+def test_mujoco_robot_from_a_config_table():
+    """What an `ibvs servo` config's [robot] table can give: kind = "mujoco", a case of ibvs.sim.cases and an arm."""
+    robot = ibvs.robot.open_robot("mujoco", case="arm_general_motion", arm="ur5", width=32, height=24)
+    try:
+        case = robot.world.case
+        assert case.name == "ur5_general_motion" and robot.n_joints == 6
+        assert np.array_equal(robot.world.q, case.start) and robot.rate == 30.0
+        assert isinstance(robot.clock, physics.PhysicsClock) and robot.clock.world is robot.world
+        with pytest.raises(TypeError, match="clock"):
+            physics.MujocoRobot(robot.world, clock=ibvs.loop.SimClock())
+    finally:
+        robot.world.close()
+    with pytest.raises(ValueError, match="case"):
+        physics.MujocoRobot(case="no_such_case")
+    with pytest.raises(ValueError, match="case"):
+        physics.MujocoRobot(case="x_translation")  # a free-flying case: no arm
+
+
 def test_bad_arguments(panda_case):
     case = panda_case
     with pytest.raises(TypeError, match="robot"):
@@ -222,7 +241,7 @@ def test_bad_commands_and_state(panda_world):
     with pytest.raises(ValueError, match="t must be finite"):
         world.step_to(float("inf"))
     with pytest.raises(TypeError, match="world"):
-        physics.MujocoRobot(None)
+        physics.MujocoRobot("panda")
     with pytest.raises(ValueError, match="latency"):
         physics.MujocoCamera(world, latency=-1.0)
 

@@ -244,6 +244,8 @@ class World:
         self._scratch = mujoco.MjData(m)  # for rendering a past state
         self._renderer = None
         self._stats: Optional[np.ndarray] = None
+        #: the ibvs.sim.cases.Case the world was built for by MujocoRobot(case=...), else None
+        self.case = None
         #: callables listener(world), each called after every step_to that stepped (a recorder's hook)
         self.listeners: list = []
         self._history = np.zeros((max(2, int(round(history / timestep)) + 1), n + 1))
