@@ -73,6 +73,15 @@ def test_rendered_dots_are_where_the_camera_model_projects_them(panda_case, size
             assert np.abs(found - expected).max() <= 0.5, (found - expected)
 
 
+def test_rendered_tag_is_detected_where_the_camera_model_projects_its_corners(panda_case):
+    case = panda_case
+    with physics.World(case.robot, case.target, physics.testbed_camera(320, 240), kind="tag") as world:
+        detector = ibvs.vision.TagDetector((0,), image_size=(320, 240))
+        for q in (case.goal, case.start):
+            found = detector.track(world.render(q)).pixels
+            assert np.abs(found - _projections(case, world, q)).max() <= 0.5
+
+
 def test_velocity_step_response(panda_world):
     world = panda_world
     q0 = np.array(sim.cases.ARMS["panda"][0])

@@ -137,7 +137,9 @@ class World:
     target      an ibvs.sim.Target with its points in its z = 0 plane; its pose is world <- target
                 (eye-in-hand), or robot frame <- target (eye-to-hand: the target rides on the flange)
     camera      a pinhole ibvs.CameraModel with its principal point centred (testbed_camera())
-    kind        the texture: ibvs.vision.Renderer's kind ("dots", "tag", "disc", "polygon")
+    kind        the texture: ibvs.vision.Renderer's kind ("dots", "tag", "disc", "polygon"...), drawn by
+                Renderer(camera, target, kind, **renderer_options) (dot_radius, tag_id...; its noise and blur
+                are not used: the plate's texture only)
     timestep    s, the physics step (1e-3: 1 kHz; within [1/2000, 1/250])
     tau         s, the velocity loop's time constant at q_ref
     q_ref       joints at which the gains are set (default: ibvs.sim.cases.ARMS's goal for an example arm, else
@@ -146,7 +148,7 @@ class World:
     """
 
     def __init__(self, robot, target, camera, kind: str = "dots", timestep: float = TIMESTEP, tau: float = TAU,
-                 q_ref=None, history: float = 1.0) -> None:
+                 q_ref=None, history: float = 1.0, **renderer_options) -> None:
         mujoco = mujoco_module()
         from ..urdf import UrdfRobot
         from ...vision import Renderer
@@ -201,7 +203,7 @@ class World:
         cam.focal_length = [1.0, 1.0]
 
         # The target plane with ibvs.vision.Renderer's texture (level 1 of its pyramid: 1024 texels across).
-        drawn = Renderer(camera, target, kind=kind)
+        drawn = Renderer(camera, target, kind=kind, **renderer_options)
         tex = np.clip(np.rint(drawn._pyramid[1]), 0, 255).astype(np.uint8)
         rows, cols = drawn._pyramid[0].shape
         extent = np.array([cols, rows]) * drawn._d0
