@@ -116,8 +116,9 @@ def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, po
             (base / dev).exists() else dev
         return sources.OpenCVCapture(dev, clock=clock, camera=camera, **t)
     if kind == "mujoco":  # the physics testbed's camera, in the world of the mujoco robot
-        from ..sim.physics import MujocoCamera
+        import importlib  # by name, as ibvs.robot's registry opens the mujoco robot: the physics extra's module
 
+        MujocoCamera = importlib.import_module("ibvs.sim.physics").MujocoCamera
         if robot is None or getattr(robot, "world", None) is None:
             raise ValueError(f"{where}: a mujoco source needs the mujoco robot ([robot] kind = \"mujoco\")")
         return MujocoCamera(robot.world, rate=t.get("rate"), latency=float(t.get("latency", 0.0)))
