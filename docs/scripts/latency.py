@@ -1,7 +1,8 @@
 """The gain range of the servo loop under a capture-to-command delay, without and with compensation
 (docs/servo-loop.md, "Latency").
 
-The loop (ibvs.loop.ServoLoop: rendered dots, the dot tracker, the polar servo, the joint mapping) drives
+The loop (ibvs.loop.ServoLoop: rendered dots, the dot tracker, the servo - Cartesian and polar - the joint
+mapping) drives
 the kinematic Afma6-like gantry (ibvs.sim.Gantry.afma6, its joints integrated exactly on a SimClock)
 from a start 40 mm / 17 degrees off the goal; the renderer's frames (30 Hz) reach the loop `delay`
 seconds after their capture (ibvs.vision.sources.RendererSource's latency: an injected delay). For each
@@ -34,9 +35,10 @@ from ibvs.ros.node import NodeParams, ServoNodeCore
 from ibvs.vision import Renderer
 from ibvs.vision.sources import RendererSource
 
-GAINS = (0.5, 1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 20, 25)
+GAINS = (1, 2, 4, 6, 8, 10, 12, 15, 20, 25, 30)
 OFFSET = sim.pose(t=(0.03, -0.02, 0.02), r=(0.0, 0.0, 0.3))  # the start, in the goal camera's frame
 OVERSHOOT = 0.05
+KINEMATIC = True  # the predictor's model: the robot's kinematics (False: the interaction matrix alone)
 
 
 class KinematicRobot:
@@ -66,7 +68,21 @@ class KinematicRobot:
         self.stop()
 
 
-def episode(gain: float, delay: float, compensate: bool, duration: float) -> dict:
+class TrueDepthPredictor(FeaturePredictor):
+    """A diagnostic: the predictor given the points' true depths at capture (an oracle the loop does not have;
+    the servo keeps its constant goal depth)."""
+
+    def __init__(self, delay, model, target, **kw):
+        super().__init__(delay, kinematics=model, **kw)
+        self.model, self.world = model, np.asarray(target.world_points())
+
+    def predict(self, uv, depth, t_capture):
+        T_cw = np.linalg.inv(self.model.camera(self.q_at(t_capture)))
+        return super().predict(uv, (self.world @ T_cw[:3, :3].T + T_cw[:3, 3])[:, 2], t_capture)
+
+
+def episode(gain: float, delay: float, compensate: bool, duration: float, scheme: str = "cartesian",
+            true_depth: bool = False) -> dict:
     """One run: {converged, overshoot, final_px}."""
     clock = SimClock()
     model = sim.Gantry.afma6()
@@ -84,9 +100,11 @@ def episode(gain: float, delay: float, compensate: bool, duration: float) -> dic
     robot = KinematicRobot(model, q0, clock)
     source = RendererSource(Renderer(cam, target, "dots"), lambda: model.camera(robot.q), clock=clock,
                             rate=cam.fps, latency=delay)
-    predictor = FeaturePredictor(delay) if compensate and delay > 0 else None
-    params = NodeParams(desired_pixels=pixels(q_goal), depth=0.6, scheme="polar", gain=gain, max_linear_speed=1.0,
-                        max_angular_speed=3.0, initial_pixels=pixels(q0), output="joint_velocities", eMc=np.eye(4),
+    predictor = FeaturePredictor(delay, kinematics=model if KINEMATIC else None) if compensate and delay > 0 else None
+    if predictor is not None and true_depth:
+        predictor = TrueDepthPredictor(delay, model, target)
+    params = NodeParams(desired_pixels=pixels(q_goal), depth=0.6, scheme=scheme, gain=gain, max_linear_speed=0.25,
+                        max_angular_speed=1.0, initial_pixels=pixels(q0), output="joint_velocities", eMc=np.eye(4),
                         joint_names=[f"j{i}" for i in range(6)], fps=cam.fps)
     core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)), jacobian=model.jacobian,
                          predictor=predictor)
@@ -110,14 +128,15 @@ def episode(gain: float, delay: float, compensate: bool, duration: float) -> dic
             "final_px": final}
 
 
-def study(delays_ms, gains) -> dict:
-    out = {"gains": list(gains), "delays_ms": list(delays_ms), "runs": []}
-    for d in delays_ms:
-        for compensate in (False, True):
-            for g in gains:
-                duration = min(10.0, max(2.0, 7.0 / g)) + d / 1e3
-                r = episode(float(g), d / 1e3, compensate, duration)
-                out["runs"].append({"delay_ms": d, "compensated": compensate, "gain": g, **r})
+def study(delays_ms, gains, schemes=("cartesian", "polar")) -> dict:
+    out = {"gains": list(gains), "delays_ms": list(delays_ms), "schemes": list(schemes), "runs": []}
+    for scheme in schemes:
+        for d in delays_ms:
+            for compensate in (False, True):
+                for g in gains:
+                    duration = min(10.0, max(2.0, 7.0 / g)) + d / 1e3
+                    r = episode(float(g), d / 1e3, compensate, duration, scheme)
+                    out["runs"].append({"scheme": scheme, "delay_ms": d, "compensated": compensate, "gain": g, **r})
     return out
 
 
@@ -126,11 +145,12 @@ def good(r) -> bool:
 
 
 def ranges(res) -> dict:
-    """(delay, compensated) -> the gains that converge within 5 % overshoot."""
-    out = {}
+    """(scheme, delay, compensated) -> the gains that converge within 5 % overshoot."""
+    out: dict = {}
     for r in res["runs"]:
-        out.setdefault((r["delay_ms"], r["compensated"]), []).append(r["gain"]) if good(r) else \
-            out.setdefault((r["delay_ms"], r["compensated"]), [])
+        gains = out.setdefault((r["scheme"], r["delay_ms"], r["compensated"]), [])
+        if good(r):
+            gains.append(r["gain"])
     return out
 
 
@@ -140,10 +160,11 @@ def _span(gs) -> str:
 
 def table(res) -> str:
     rg = ranges(res)
-    lines = ["| delay (ms) | uncompensated: gains (1/s) | compensated: gains (1/s) | MuJoCo testbed |",
-             "|---:|---|---|---|"]
+    head = "| delay (ms) |" + "".join(f" {s} | {s}, compensated |" for s in res["schemes"])
+    lines = [head + " MuJoCo testbed |", "|---:|" + "---|---|" * len(res["schemes"]) + "---|"]
     for d in res["delays_ms"]:
-        lines.append(f"| {d:g} | {_span(rg[(d, False)])} | {_span(rg[(d, True)])} | (physics helper) |")
+        cells = "".join(f" {_span(rg[(s, d, False)])} | {_span(rg[(s, d, True)])} |" for s in res["schemes"])
+        lines.append(f"| {d:g} |{cells} (physics helper) |")
     return "\n".join(lines)
 
 
@@ -154,16 +175,11 @@ def figure(res, path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
-    by = {}
-    for r in res["runs"]:
-        by.setdefault(r["compensated"], {}).setdefault(r["delay_ms"], []).append(r)
-    for comp, style, label in ((False, "o-", "uncompensated"), (True, "s-", "compensated (features predicted)")):
-        xs, ys = [], []
-        for d, runs in sorted(by[comp].items()):
-            gs = [r["gain"] for r in runs if good(r)]
-            xs.append(d)
-            ys.append(max(gs) if gs else np.nan)
-        ax.plot(xs, ys, style, label=label)
+    rg = ranges(res)
+    for scheme, colour in zip(res["schemes"], ("C0", "C1", "C2")):
+        for comp, style, label in ((False, "o--", "uncompensated"), (True, "s-", "compensated")):
+            ys = [max(rg[(scheme, d, comp)]) if rg[(scheme, d, comp)] else np.nan for d in res["delays_ms"]]
+            ax.plot(res["delays_ms"], ys, style, color=colour, label=f"{scheme}, {label}")
     ds = np.linspace(max(1.0, min(res["delays_ms"])), max(res["delays_ms"]), 100)
     ax.plot(ds, 1 / (math.e * ds / 1e3), ":", color="gray", label="1 / (e d): continuous loop, no overshoot")
     ax.set_xlabel("capture-to-command delay d (ms)")
@@ -180,9 +196,20 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--delays", type=float, nargs="+", default=[0, 25, 50, 75, 100, 125, 150], metavar="MS")
     p.add_argument("--gains", type=float, nargs="+", default=list(GAINS))
+    p.add_argument("--schemes", nargs="+", default=["cartesian", "polar"])
     p.add_argument("--out", type=Path, help="the figure (PNG); its data beside it as .json")
+    p.add_argument("--true-depth", action="store_true",
+                   help="a diagnostic instead: the compensated runs with the predictor given the true depths")
     args = p.parse_args(argv)
-    res = study(args.delays, args.gains)
+    if args.true_depth:
+        print("| scheme | delay (ms) | gains (1/s): compensated, true depths |\n|---|---:|---|")
+        for scheme in args.schemes:
+            for d in args.delays:
+                gs = [g for g in args.gains if good(episode(g, d / 1e3, True, min(10.0, max(2.0, 7.0 / g)) + d / 1e3,
+                                                            scheme, true_depth=True))]
+                print(f"| {scheme} | {d:g} | {_span(gs)} |")
+        return 0
+    res = study(args.delays, args.gains, args.schemes)
     print(table(res))
     if args.out is not None:
         figure(res, args.out)

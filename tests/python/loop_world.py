@@ -12,6 +12,7 @@ import ibvs
 from ibvs import sim
 from ibvs.loop import SimClock
 from ibvs.loop.servo_loop import LoopOptions, ServoLoop
+from ibvs.robot import JointState, Limits, Robot, RobotError
 from ibvs.ros.node import NodeParams, ServoNodeCore
 
 GOAL_Q = np.array(sim.cases.GANTRY_GOAL_Q)
@@ -25,7 +26,7 @@ class RecordingRobot:
     for send_joint_velocity; stale_after: from that state() call on, the stamp stops advancing."""
 
     def __init__(self, clock: SimClock, q0, model=None, fail_state_at=None, fail_send_at=None, stale_after=None,
-                 error=ConnectionError):
+                 error=RobotError):
         self.kinematics = model if model is not None else sim.Gantry.afma6()
         self.n_joints = self.kinematics.dof
         self.rate, self.name = 1000.0, "recording"
@@ -119,3 +120,30 @@ def loop(w, robot=None, source=None, options=None, predictor=None, gain=1.0, **c
     source = source if source is not None else render_source(w, robot)
     options = options if options is not None else LoopOptions(duration=2.0, signals=False)
     return ServoLoop(source, robot, core(w, gain, predictor, **core_kw), w.clock, options, predictor), robot
+
+
+class ProtocolRobot(Robot):
+    """The kinematic gantry as an ibvs.robot.Robot (the real protocol: every command checked by
+    check_command, a refused one stops the robot); `hooks` lists the hooks called, in order."""
+
+    def __init__(self, clock: SimClock, q0, model, limits: Limits, rate: float = 60.0):
+        super().__init__("protocol gantry", limits, rate, model, clock)  # rate: the loop's (the check's period)
+        self.q, self.dq, self.hooks = np.array(q0, dtype=float), np.zeros(6), []
+        clock.on_advance(lambda t0, t1: setattr(self, "q", self.q + self.dq * (t1 - t0)))
+
+    def _connect(self):
+        self.hooks.append("connect")
+
+    def _read_state(self):
+        return JointState(self.q.copy(), self.dq.copy(), self.clock.now())
+
+    def _send(self, dq):
+        self.hooks.append(("send", np.array(dq)))
+        self.dq = np.array(dq)
+
+    def _halt(self):
+        self.hooks.append("halt")
+        self.dq = np.zeros(6)
+
+    def _close(self):
+        self.hooks.append("close")

@@ -305,3 +305,15 @@ def test_report_cells_are_numbers_or_na_with_a_reason(tmp_path: Path, capsys: py
     assert out.count("n/a: not measured") == 2  # under the components and the paced tables
     assert "| baseline | stacked(4) 16×6 | 0.10 | 0.20 | 1.0 | 10,000,000 | n/a |" in out
     assert "ratio n/a: only" in out
+
+
+def test_loop_benchmark_runs_and_reports_its_parts(capsys) -> None:
+    pytest.importorskip("cv2", reason="the loop benchmark renders and tracks dots (the vision extra)")
+    assert bench.main(["--loop", "--frames", "12", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["frames"] == 12 and res["outcome"] == "ended" and res["image"] == "640x480"
+    for key in ("median", "p99", "max"):
+        assert res["overhead_ms"][key] > 0
+    assert 0 < res["tracker_ms"]["median"] < res["overhead_ms"]["max"]
+    assert bench.main(["--loop", "--frames", "5"]) == 0
+    assert "of which the dot tracker" in capsys.readouterr().out

@@ -38,8 +38,8 @@ def _one_line_error(capsys, argv) -> str:
     ([('kind = "sim"', 'kind = "kuka"')], "kind"),
     ([("gain = ", "gain = -")], "[servo] gain"),
     ([("duration = ", "duration = 'soon' #")], "[loop] duration"),
-    ([("[loop]", "[loop]\nwatchdog = nan")], "[loop] watchdog"),
-    ([("[loop]", "[loop]\nlog = \"no/such/dir/run.jsonl\"")], "[loop] log"),
+    ([("watchdog = 0.5 ", "watchdog = nan ")], "[loop] watchdog"),
+    ([('log = "servo-run.jsonl"', 'log = "no/such/dir/run.jsonl"')], "[loop] log"),
     ([("[loop]", "[loop]\nrecord = \"run.bag\"")], "must end in .mcap"),
     ([("[tracker]", "[tracker]\ninitial_pixels = [[1.0, 2.0]]")], "initial_pixels"),
 ])
@@ -72,14 +72,18 @@ def test_unreachable_robot_is_status_2(tmp_path, capsys):
         pytest.skip("ibvs.robot is not merged")
     if "franky" not in ROBOTS:
         pytest.skip("no franky adapter")
-    path = _config(tmp_path, ('kind = "sim"', f'kind = "franky"\nhost = "127.0.0.1:{port}"'))
+    text = EXAMPLE.read_text()
+    start, end = text.index("\n[robot]") + 1, text.index("\n[loop]") + 1
+    path = tmp_path / "servo.toml"
+    path.write_text(text[:start] + f'[robot]\nkind = "franky"\nhost = "127.0.0.1:{port}"\nkinematics = "panda"\n\n' + text[end:])
     line = _one_line_error(capsys, ["servo", str(path)])
-    assert "franky" in line
+    assert "franky" in line and "RobotError" in line and "cannot connect" in line, line
 
 
 def test_example_config_runs_and_stops(tmp_path):
     """docs/servo.toml end to end (the kinematic robot, the renderer, a simulated clock): it converges."""
     pytest.importorskip("cv2", reason="the loop's tracker (the vision extra)")
+    pytest.importorskip("ibvs.robot.sim", reason="the kinematic SimRobot of ibvs.robot (the robot branch)")
     log = tmp_path / "run.jsonl"
     r = subprocess.run([sys.executable, "-m", "ibvs", "servo", str(EXAMPLE), "--log", str(log)], capture_output=True,
                        text=True, timeout=300)

@@ -93,6 +93,11 @@ SHRINK = {
         ("--json docs/figures/physics_latency.json", "--size 160x120 --delays 50 --gains 2"),
         ("--json docs/figures/physics_latency_cartesian.json", "--size 160x120 --delays 50 --gains 2")],
     ("docs/physics.md", "physics.py bench"): [("--seconds 5", "--seconds 0.2")],
+    # The full study (about 10 min) wrote the page's table and figure; here two delays, one gain, one servo.
+    ("docs/servo-loop.md", "docs/scripts/latency.py"): [
+        ("--delays 0 25 50 75 100 125 150 --out docs/figures/latency.png",
+         "--delays 0 100 --gains 4 --schemes cartesian --out latency.png")],
+    ("docs/servo-loop.md", "ibvs bench --loop"): [("--frames 300", "--frames 20")],
 }
 
 # Blocks not run here, and why.
@@ -169,6 +174,9 @@ PRINTS = {
     ("docs/hand-eye.md", "MiscalibratedRobot(case.robot, wrong)"): ["UrdfRobot: converged", "MiscalibratedRobot: converged"],
     ("docs/beyond.md", "docs/scripts/gain_saturation.py"): ["| z_rotation | polar | gain 1 | converged | 13.2 |"],
     ("docs/ros.md", 'record="gantry.mcap"'): ["largest difference from the recorded twists: 0"],
+    ("docs/servo-loop.md", "ibvs servo docs/servo.toml"): ["converged: every point within 0.5 px", "dry run"],
+    ("docs/servo-loop.md", "ibvs bench --loop"): ["servo loop overhead per frame"],
+    ("docs/servo-loop.md", "docs/scripts/latency.py"): ["| 100 | "],
     ("docs/ros.md", "core = ros.ServoNodeCore"): ["camera_optical_frame", "ramping"],
     ("docs/wide.md", "measurements_desired=goal"): ["target centre 100.6 deg off the axis", "converged at frame"],
     ("docs/wide.md", "estimator.estimate_bearings(fish.to_bearing(pixels))"): [

@@ -111,3 +111,66 @@ def test_bad_arguments_are_refused():
         p.commanded(0.5, np.zeros(6))
     with pytest.raises(ValueError, match="finite"):
         p.commanded(2.0, [np.nan] * 6)
+
+
+def test_kinematic_model_moves_the_points_with_the_joints():
+    # the gantry's joints measured at capture, then commanded: the predicted points are the projection
+    # at the joints reached (exact depths given: to rounding)
+    from ibvs import sim
+
+    model = sim.Gantry.afma6()
+    q0 = np.array(sim.cases.GANTRY_GOAL_Q)
+    C0 = model.camera(q0)
+    world = (C0[:3, :3] @ np.array([[-0.05, -0.05, 0.6], [0.05, -0.05, 0.62], [0.05, 0.05, 0.6]]).T).T + C0[:3, 3]
+
+    def seen(q):
+        T = np.linalg.inv(model.camera(q))
+        P = world @ T[:3, :3].T + T[:3, 3]
+        return P[:, :2] / P[:, 2:3], P[:, 2]
+
+    qdot1, qdot2 = np.array([0.05, -0.02, 0.03, 0.1, -0.2, 0.4]), np.array([-0.02, 0.04, 0.0, 0.0, 0.3, -0.1])
+    p = FeaturePredictor(0.1, kinematics=model)
+    p.observed(0.0, q0)
+    p.commanded(0.0, np.zeros(6), qdot1)
+    q_mid = q0 + 0.04 * qdot1
+    p.observed(0.04, q_mid)  # a state read mid-way
+    p.commanded(0.04, np.zeros(6), qdot2)
+    uv, z = seen(q0)
+    got_uv, got_z = p.predict(uv, z, 0.0)
+    want_uv, want_z = seen(q_mid + 0.06 * qdot2)
+    np.testing.assert_allclose(got_uv, want_uv, atol=1e-12)
+    np.testing.assert_allclose(got_z, want_z, rtol=1e-12)
+    np.testing.assert_allclose(p.q_at(0.02), q0 + 0.02 * qdot1, atol=1e-15)
+    with pytest.raises(TypeError, match="camera"):
+        FeaturePredictor(0.1, kinematics=object())
+
+
+def test_the_ros_node_tells_its_predictor_what_it_commanded():
+    # ServoNodeCore (the node's message path) records each twist it publishes in its predictor
+    pytest.importorskip("rosbags", reason="the node's messages are rosbags' classes (the ros extra)")
+    from ibvs.ros.node import NodeParams, ServoNodeCore
+
+    now = {"ns": 0}
+    p = FeaturePredictor(0.05)
+    core = ServoNodeCore(NodeParams(desired_pixels=[[300, 200], [340, 200], [340, 240], [300, 240]]),
+                         clock=lambda: now["ns"], predictor=p)
+    core.last_twist, core.last_good_ns = np.array([0.1, 0, 0, 0, 0, 0.2]), 0
+    now["ns"] = 10_000_000
+    core.tick()  # the ramp's command, published at 10 ms
+    assert p._t == [0.01] and np.allclose(p._v[0], 0.95 * np.array([0.1, 0, 0, 0, 0, 0.2]))
+
+
+def test_a_prediction_out_of_the_field_is_lost_features_not_an_error():
+    pytest.importorskip("cv2", reason="the core tracks rendered dots (the vision extra)")
+    import loop_world as lw
+
+    w = lw.world()
+    p = FeaturePredictor(1.0)
+    core = lw.core(w, predictor=p)
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model)
+    frame = lw.render_source(w, robot).read(1.0)
+    first = core.twist_of_image(frame.image, frame.stamp)  # no command yet: the measured points
+    assert core.state == "servoing" and np.isfinite(first).all()
+    p.commanded(frame.stamp, [0, 0, 0, 3.0, 0, 0])  # 3 rad/s about x for the 1 s delay: behind the camera
+    out = core.twist_of_image(frame.image, frame.stamp)
+    assert "leaves the camera's field" in core.last_error and np.array_equal(out, first)  # the ramp, at age 0

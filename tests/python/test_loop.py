@@ -197,17 +197,31 @@ def test_injected_latency_is_measured_and_late_frames_counted():
     assert not robot.moving_after_exit()
 
 
-def test_compensation_off_is_bit_for_bit_the_servo_on_the_measured_points():
-    # Two identical runs, one with a predictor whose delay spans no command: the same twists to the bit
-    # (the prediction adds zero motion); and a core without predictor = the servo on the measured points.
-    w1, w2 = lw.world(), lw.world()
-    l1, r1 = lw.loop(w1, options=LoopOptions(duration=0.3, signals=False))
-    l2, r2 = lw.loop(w2, options=LoopOptions(duration=0.3, signals=False))
-    l1.run()
-    l2.run()
-    s1 = [c[1] for c in r1.calls if isinstance(c, tuple)]
-    s2 = [c[1] for c in r2.calls if isinstance(c, tuple)]
-    assert len(s1) == len(s2) and all(np.array_equal(a, b) for a, b in zip(s1, s2))
+def test_without_latency_the_servo_sees_the_measured_points_bit_for_bit():
+    """No predictor (latency 0, the default): each twist is, to the bit, the servo's on the tracked points,
+    computed here independently (a fresh tracker and servo of the same scheme), frame after frame."""
+    from ibvs import vision
+    from ibvs.study import schemes
+
+    w = lw.world()
+    loop, robot = lw.loop(w, options=LoopOptions(duration=0.2, signals=False))
+    assert loop.predictor is None and loop.core.predictor is None
+    tracker = vision.DotTracker(4, (int(w.camera.width), int(w.camera.height)))
+    tracker.reset(w.start_pixels)
+    servo = schemes.make("polar", 1.0, 4)
+    servo.max_linear_speed, servo.max_angular_speed = 0.5, 1.5
+    inner, twists = loop.core.twist_of_image, []
+
+    def both(image, stamp=None):
+        got = inner(image, stamp)
+        uv = w.camera.normalize(tracker.track(image).pixels)
+        want = servo.update(uv, np.full(4, 0.6), w.camera.normalize(w.goal), np.full(4, 0.6)).velocity
+        twists.append((got, np.array(want)))
+        return got
+
+    loop.core.twist_of_image = both
+    loop.run()
+    assert len(twists) > 5 and all(np.array_equal(a, b) for a, b in twists)
 
 
 def test_compensation_removes_the_delay_overshoot():
@@ -251,3 +265,95 @@ def test_servo_loop_without_frames_and_no_robot_motion_before_the_first_good_ima
     assert report.outcome == "watchdog"
     sends = [c[1] for c in robot.calls if isinstance(c, tuple)]
     assert all(not s.any() for s in sends) and not robot.moving_after_exit()
+
+
+def test_a_command_refused_by_the_limits_stops_the_loop_and_the_robot():
+    """With the real ibvs.robot protocol: a joint about to pass its position limit refuses the command
+    (LimitError, never sent), the robot is halted, the loop ends with robot_error."""
+    from ibvs.robot import Limits
+
+    w = lw.world()
+    q_lo = w.q0 - 0.5
+    q_hi = w.q0 + 0.5
+    q_hi[5] = w.q0[5] + 0.01  # the wrist's rotation (0.3 rad to go) is refused 10 mrad on
+    lim = Limits(q_lo, q_hi, np.full(6, 2.0), np.full(6, 50.0))
+    robot = lw.ProtocolRobot(w.clock, w.q0, w.model, lim)
+    source = lw.render_source(w, robot)
+    loop, _ = lw.loop(w, robot=robot, source=source, options=LoopOptions(duration=5.0, signals=False))
+    report = loop.run()
+    assert report.outcome == "robot_error" and "LimitError" in report.reason, report.reason
+    sends = [h for h in robot.hooks if isinstance(h, tuple)]
+    assert sends and robot.hooks[-2:] == ["halt", "close"] and not robot.dq.any()
+    assert robot.q[5] <= q_hi[5] + 1e-12  # never past the limit
+    assert not robot.connected
+
+
+def test_dry_run_with_the_protocol_checks_limits_and_sends_nothing():
+    from ibvs.robot import Limits
+
+    w = lw.world()
+    lim = Limits(w.q0 - 1, w.q0 + 1, np.full(6, 2.0), np.full(6, 50.0))
+    robot = lw.ProtocolRobot(w.clock, w.q0, w.model, lim)
+    loop, _ = lw.loop(w, robot=robot, source=lw.render_source(w, robot),
+                      options=LoopOptions(duration=0.3, dry_run=True, signals=False))
+    report = loop.run()
+    assert report.frames > 5 and report.sent == 0
+    assert not any(isinstance(h, tuple) for h in robot.hooks) and robot.last_command is not None
+
+
+def _rendered(w, n):
+    """n frames of the gantry at rest at its start (the images a camera would have given)."""
+    robot = lw.RecordingRobot(w.clock, w.q0, w.model)
+    src = lw.render_source(w, robot)
+    return [src.read(1.0) for _ in range(n)]
+
+
+@pytest.mark.parametrize("kind", ["video", "bag"])
+def test_replayed_video_and_bag_run_through_the_loop_to_their_end(tmp_path, kind):
+    """A recorded camera (a video file, a ROS 2 bag's images) through the loop, dry run: every frame is
+    tracked and its command computed; the end of the recording ends the loop (status 0)."""
+    import cv2
+
+    from ibvs.vision.sources import RosImageSource, VideoFile
+
+    w = lw.world()
+    frames = _rendered(w, 8)
+    if kind == "video":
+        path = tmp_path / "cam.avi"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), w.camera.fps,
+                                 (int(w.camera.width), int(w.camera.height)), isColor=False)
+        for f in frames:
+            writer.write(f.image)
+        writer.release()
+        clock = SimClock()
+        source = VideoFile(path, clock=clock)
+    else:
+        pytest.importorskip("rosbags", reason="bags need rosbags (the ros extra)")
+        from ibvs import ros
+
+        ts = ros.types.typestore()
+        path = tmp_path / "cam.mcap"
+        with ros.BagWriter(path, ts) as bag:
+            for f in frames:
+                ns = int(round(f.stamp * 1e9))
+                bag.write(ros.TOPICS["image"], ros.image_msg(f.image, ts, "cam", ns), ns)
+        clock = w.clock
+        source = RosImageSource(path, clock=clock, replay=True)
+    w2 = lw.world()
+    w2.clock = clock
+    robot = lw.RecordingRobot(clock, w.q0, w.model)
+    loop, _ = lw.loop(w2, robot=robot, source=source,
+                      options=LoopOptions(duration=10.0, dry_run=True, signals=False, rerun=tmp_path / "run.rrd"
+                                          if kind == "bag" and _has("rerun") else None))
+    report = loop.run()
+    assert report.outcome == "ended" and report.status == 0 and report.frames == 8
+    assert loop.core.state == "servoing" and report.sent == 0 and not robot.moving_after_exit()
+    assert report.timing.summary()["latency_ms"]["max"] == 0.0  # stamped on the loop's clock
+    if kind == "bag" and _has("rerun"):
+        assert (tmp_path / "run.rrd").stat().st_size > 0
+
+
+def _has(module: str) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(module) is not None

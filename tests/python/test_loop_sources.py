@@ -137,3 +137,11 @@ def test_renderer_source_arguments_are_checked():
         RendererSource(src.renderer, np.eye(4))
     with pytest.raises(ValueError, match="timeout"):
         src.read(float("nan"))
+
+
+def test_a_gstreamer_pipeline_that_cannot_open_is_a_clear_error():
+    # OpenCV's GStreamer backend (when built with it) or its absence: either way no such pipeline opens here
+    src = OpenCVCapture("nosuchsrc ! appsink")
+    assert not src.is_file
+    with pytest.raises(OSError, match="cannot open 'nosuchsrc ! appsink'"):
+        src.open()

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -113,7 +114,7 @@ def test_the_good_config_loads(tmp_path):
 
 
 @pytest.mark.parametrize("edit, match", [
-    (("[robot]\nkind = \"sim\"", "[robot]"), "missing \\[robot\\]"),
+    (("[robot]\nkind = \"sim\"", ""), "missing \\[robot\\]"),
     (("kind = \"render\"", "kind = \"webcam\""), "\\[source\\] kind"),
     (("gain = 1.0", "gain = -1.0"), "\\[servo\\] gain"),
     (("duration = 1.0", "duration = 1.0\nrecord = \"x.bag\""), "record: must end in .mcap"),
@@ -125,3 +126,34 @@ def test_bad_configs_name_what_is_wrong(tmp_path, edit, match):
     path.write_text(GOOD.replace(*edit))
     with pytest.raises(ValueError, match=match):
         load(path)
+
+
+FLOATS = st.floats(allow_nan=True, allow_infinity=True, width=64)
+
+
+@settings(max_examples=200, deadline=None)
+@given(delay=FLOATS, lag=FLOATS, twist=st.lists(FLOATS, min_size=6, max_size=6),
+       uv=st.lists(st.floats(-2, 2), min_size=6, max_size=6), z=st.floats(1e-3, 1e3), t=FLOATS)
+def test_predictor_gives_finite_points_or_refuses(delay, lag, twist, uv, z, t):
+    """Any input to the latency predictor: finite predicted points and depths > 0, or a ValueError."""
+    from ibvs.loop.latency import FeaturePredictor
+
+    try:
+        p = FeaturePredictor(delay, lag)
+    except ValueError as e:
+        assert "delay" in str(e) or "lag" in str(e)
+        return
+    try:
+        p.commanded(t, twist)
+    except ValueError as e:
+        assert "commanded" in str(e)
+        return
+    if not (math.isfinite(p.delay) and abs(p.delay) < 1e3 and np.abs(twist).max() < 1e3):
+        return
+    try:
+        out, depth = p.predict(np.reshape(uv, (3, 2)), z, t)
+    except ValueError as e:
+        assert "leaves the camera's field" in str(e)
+        return
+    assert out.shape == (3, 2) and depth.shape == (3,) and np.isfinite(out).all()
+    assert np.isfinite(depth).all() and (depth > 0).all()

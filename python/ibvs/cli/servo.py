@@ -28,7 +28,9 @@ def add_parser(sub) -> None:
                                                           "[loop] dry_run)")
     s.add_argument("--duration", type=a.number(0, 1e7, open_lo=True), metavar="S",
                    help="seconds to run (overrides [loop] duration)")
-    # Output path (checked below with out_file, as every command's): the loop's JSON-lines log.
+    # OUTPUT OPTION (for the lead): with the finite branch's helper merged, this becomes
+    # a.add_output(s, "--log", type=a.out_file(".jsonl", ".json"), metavar=..., help=...); the config's
+    # [loop] log / record / rerun paths are checked by _check_outputs with the same out_file.
     s.add_argument("--log", type=a.out_file(".jsonl", ".json"), metavar="FILE.jsonl",
                    help="the per-frame log (overrides [loop] log)")
 
@@ -85,6 +87,8 @@ def command(args) -> int:
         a.say(PROG, f"stopped the robot on an error in the loop: {type(e).__name__}: {e}{log}")
         return 1
     print(report.timing.text())
+    if cfg.options.dry_run:
+        print(f"dry run: {report.frames} commands computed and logged, none sent")
     if report.status != 0:
         a.say(PROG, f"{report.outcome}: {report.reason}; the robot was stopped"
                     + (f"; log {report.log}" if report.log else ""))

@@ -5,7 +5,8 @@ Sections (docs/servo-loop.md has every key; docs/servo.toml is a complete exampl
              optional when the source knows its camera (a bag's camera_info)
   [source]   kind = "render" (the simulator's renderer at the robot's camera pose; its [target]),
              "video" (a file replayed at its rate), "capture" (OpenCV VideoCapture: device index, file or
-             GStreamer pipeline) or "bag" (a ROS 2 bag's images); latency, drop (render)
+             GStreamer pipeline), "bag" (a ROS 2 bag's images) or "mujoco" (the physics testbed's camera,
+             ibvs.sim.physics.MujocoCamera of the mujoco robot's world); latency, drop (render)
   [target]   the rendered target (render): points, pose = { t = [...], r_deg = [...] }, as scenario files
   [tracker]  kind = "dots" or "tag", desired_pixels, initial_pixels, tag_ids
   [servo]    scheme, gain, depth, damping, max_linear_speed, max_angular_speed, max_joint_speed,
@@ -36,7 +37,7 @@ __all__ = ["LOOP_KEYS", "SECTIONS", "SOURCE_KINDS", "LoopConfig", "load", "loop_
 #: The sections of a config file.
 SECTIONS = ("camera", "source", "target", "tracker", "servo", "robot", "loop")
 #: The frame sources a config can name.
-SOURCE_KINDS = ("render", "video", "capture", "bag")
+SOURCE_KINDS = ("render", "video", "capture", "bag", "mujoco")
 #: The keys of [loop] (LoopOptions' fields, the clock, the signals handled always by the command).
 LOOP_KEYS = tuple(f.name for f in fields(LoopOptions) if f.name != "signals") + ("clock",)
 #: The clocks [loop] clock can name.
@@ -46,7 +47,8 @@ _SOURCE_KEYS = {"render": ("kind", "render", "latency", "drop", "seed", "dot_rad
                            "stop_after"),
                 "video": ("kind", "path", "rate"),
                 "capture": ("kind", "device", "width", "height", "fps"),
-                "bag": ("kind", "path", "image_topic", "camera_info_topic", "replay")}
+                "bag": ("kind", "path", "image_topic", "camera_info_topic", "replay"),
+                "mujoco": ("kind", "rate", "latency")}
 _TRACKER_KEYS = ("kind", "desired_pixels", "initial_pixels", "tag_ids")
 _SERVO_KEYS = ("scheme", "gain", "depth", "damping", "max_linear_speed", "max_angular_speed", "max_joint_speed",
                "lost_timeout")
@@ -98,18 +100,18 @@ def _bool(table: Mapping, key: str, where: str, default: bool) -> bool:
     return x
 
 
-def _path(table: Mapping, key: str, where: str, base: Path) -> Optional[Path]:
-    """An output path, relative to the config file's directory. Output paths (log, record, rerun) are
-    checked for writing by the command (ibvs.cli.servo) before the run."""
+def _path(table: Mapping, key: str, where: str) -> Optional[Path]:
+    """An output path, relative to the working directory (as the command line's). Output paths (log,
+    record, rerun) are checked for writing by the command (ibvs.cli.servo) before the run."""
     if key not in table:
         return None
     x = table[key]
     if not isinstance(x, str) or not x:
         raise ValueError(f"{where} {key}: must be a path (a non-empty string), got {x!r}")
-    return base / x
+    return Path(x)
 
 
-def loop_options(table: Mapping, where: str = "[loop]", base: Path = Path(".")) -> LoopOptions:
+def loop_options(table: Mapping, where: str = "[loop]") -> LoopOptions:
     """LoopOptions of a [loop] table (every value checked: a ValueError naming the key)."""
     if not isinstance(table, Mapping):
         raise ValueError(f"{where} must be a table")
@@ -124,9 +126,9 @@ def loop_options(table: Mapping, where: str = "[loop]", base: Path = Path(".")) 
         lag=_number(table, "lag", where, 0, 10, default=0.0),
         converge_px=_number(table, "converge_px", where, 0, 1e5, open_lo=True),
         dry_run=_bool(table, "dry_run", where, False),
-        log=_path(table, "log", where, base),
-        record=_path(table, "record", where, base),
-        rerun=_path(table, "rerun", where, base),
+        log=_path(table, "log", where),
+        record=_path(table, "record", where),
+        rerun=_path(table, "rerun", where),
         record_images=_bool(table, "record_images", where, False),
     )
     if o.record is not None and o.record.suffix != ".mcap":
@@ -219,7 +221,8 @@ def load(path) -> LoopConfig:
     _keys(sv, _SERVO_KEYS, f"{where} [servo]")
     from ..study.schemes import SCHEMES
 
-    if sv.get("scheme", "polar") not in SCHEMES:
+    scheme = sv.get("scheme", "polar")
+    if not isinstance(scheme, str) or scheme not in SCHEMES:
         raise ValueError(f"{where} [servo] scheme: must be one of {', '.join(sorted(SCHEMES))}, got "
                          f"{sv.get('scheme')!r}")
     for key, lo, hi in (("gain", 0, 1e4), ("damping", 0, 1e4), ("max_linear_speed", 0, 100),
@@ -237,6 +240,6 @@ def load(path) -> LoopConfig:
         raise ValueError(f"{where} [robot] kind: the driver's name is needed (ibvs.robot.ROBOTS), got "
                          f"{rb.get('kind')!r}")
     lp = doc.get("loop", {})
-    options = loop_options(lp, f"{where} [loop]", path.parent)
+    options = loop_options(lp, f"{where} [loop]")
     clock = lp.get("clock") or ("sim" if rb["kind"] == "sim" and kind == "render" else "robot")
     return LoopConfig(path, doc, options, clock)

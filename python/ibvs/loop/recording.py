@@ -24,7 +24,9 @@ __all__ = ["BagRecording", "LoopLog", "RerunRecording"]
 
 def _jsonable(x: Any) -> Any:
     if isinstance(x, np.ndarray):
-        return [_jsonable(v) for v in x.tolist()]
+        if x.dtype.kind == "f" and not np.isfinite(x).all():
+            return [_jsonable(v) for v in x.tolist()]
+        return x.tolist()  # finite numbers as they are (the fast path: a frame's arrays)
     if isinstance(x, (list, tuple)):
         return [_jsonable(v) for v in x]
     if isinstance(x, dict):

@@ -41,7 +41,7 @@ from .timing import Timing
 
 __all__ = ["LoopOptions", "LoopReport", "ServoLoop", "STATUS"]
 
-#: Exit status of each outcome (the `ibvs servo` command's).
+#: Exit status of each outcome (the `ibvs servo` command's; a signal's is 128 + its number).
 STATUS = {"duration": 0, "converged": 0, "ended": 0, "lost": 1, "watchdog": 1, "robot_error": 1, "error": 1,
           "signal": 130}
 
@@ -253,6 +253,8 @@ class ServoLoop:
                 raise _Stop("watchdog", f"the robot's state is {clock.now() - state.stamp:.3g} s old (watchdog "
                                         f"{o.state_watchdog:g} s)")
             core.q = np.asarray(state.q, dtype=np.float64)
+            if self.predictor is not None:
+                self.predictor.observed(state.stamp, core.q)
             image = frame.image if frame.image.ndim == 2 else _gray(frame.image)
             twist = core.twist_of_image(image, frame.stamp)
             cmd = self._command(twist, frame, state, log, report, timing=timing, t0=t0, image=image, bag=bag,
@@ -282,7 +284,7 @@ class ServoLoop:
             report.sent += sent
         t_cmd = clock.now()
         if self.predictor is not None:
-            self.predictor.commanded(t_cmd, twist)
+            self.predictor.commanded(t_cmd, twist, qdot)
         if frame is None:
             return cmd
         report.frames += 1

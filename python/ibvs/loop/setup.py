@@ -23,7 +23,7 @@ from .config import LoopConfig
 from .latency import FeaturePredictor
 from .servo_loop import ServoLoop
 
-__all__ = ["Setup", "camera_of", "open_source"]
+__all__ = ["SIM_MODELS", "Setup", "camera_of", "open_source"]
 
 
 def camera_of(table, where: str):
@@ -58,8 +58,51 @@ def _target(table, where: str):
         raise ValueError(f"{where} [target]: {e}") from None
 
 
+#: The kinematic simulator's robots a config can name ([robot] kind = "sim", model = ...).
+SIM_MODELS = ("gantry", "free", "panda", "ur5")
+
+
+def _sim_options(options: Dict[str, Any], where: str) -> Dict[str, Any]:
+    """[robot] kind = "sim": model = "gantry" (ibvs.sim.Gantry.afma6), "panda" / "ur5" (example-robot-data's
+    arms with the camera of ibvs.sim.cases) or "free" (the free-flying camera, at pose = { t, r_deg });
+    the other keys go to ibvs.robot's SimRobot as they are (q0, rate, hold...)."""
+    from .. import sim
+    from .config import pose_of
+
+    out = dict(options)
+    model = out.pop("model", "gantry")
+    if model not in SIM_MODELS:
+        raise ValueError(f"{where} model: must be one of {', '.join(SIM_MODELS)}, got {model!r}")
+    if model == "free":
+        if "pose" in out:
+            out["pose"] = pose_of(out["pose"], f"{where} pose")
+        return out
+    out["robot"] = sim.Gantry.afma6() if model == "gantry" else sim.cases.arm_robot(model)
+    return out
+
+
+def _kinematics_option(options: Dict[str, Any], where: str) -> Dict[str, Any]:
+    """A hardware driver's kinematics = "panda" / "ur5" (example-robot-data's arm, ibvs.sim.cases.arm_robot)
+    or "gantry", with mount = { t, r_deg } its camera's eMc (default the cases' mount)."""
+    from .. import sim
+    from .config import pose_of
+
+    out = dict(options)
+    name = out.pop("kinematics")
+    mount = out.pop("mount", None)
+    if name not in SIM_MODELS or name == "free":
+        raise ValueError(f"{where} kinematics: must be one of gantry, panda, ur5, got {name!r}")
+    eMc = None if mount is None else pose_of(mount, f"{where} mount")
+    if name == "gantry":
+        model = sim.Gantry.afma6() if eMc is None else sim.Gantry.afma6().with_mount(eMc)
+    else:
+        model = sim.cases.arm_robot(name, eMc)
+    out["kinematics"] = model
+    return out
+
+
 def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, pose=None, target=None,
-                where: str = "[source]"):
+                where: str = "[source]", robot=None):
     """The FrameSource of a [source] table (not opened)."""
     from ..vision import sources
 
@@ -72,7 +115,15 @@ def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, po
         dev = str(base / dev) if isinstance(dev, str) and "!" not in dev and not dev.startswith("/dev/") and \
             (base / dev).exists() else dev
         return sources.OpenCVCapture(dev, clock=clock, camera=camera, **t)
+    if kind == "mujoco":  # the physics testbed's camera, in the world of the mujoco robot
+        import importlib  # by name, as ibvs.robot's registry opens the mujoco robot: the physics extra's module
+
+        MujocoCamera = importlib.import_module("ibvs.sim.physics").MujocoCamera
+        if robot is None or getattr(robot, "world", None) is None:
+            raise ValueError(f"{where}: a mujoco source needs the mujoco robot ([robot] kind = \"mujoco\")")
+        return MujocoCamera(robot.world, rate=t.get("rate"), latency=float(t.get("latency", 0.0)))
     if kind == "bag":
+        t.setdefault("replay", True)  # at the recorded pace, on the loop's clock
         return sources.RosImageSource(base / t.pop("path"), clock=clock, **t)
     # render: ibvs.vision.Renderer of the target at the robot's camera pose
     from ..vision import Renderer
@@ -107,7 +158,7 @@ class Setup:
         if src["kind"] == "render" and self.camera is None:
             raise ValueError(f"{where}: a render source needs a [camera] table")
         self.source = open_source(src["kind"], src, self.camera, self.clock, base, pose=self._camera_pose,
-                                  target=self.target, where=f"{where} [source]")
+                                  target=self.target, where=f"{where} [source]", robot=self.robot)
         self.core = None
         self.predictor: Optional[FeaturePredictor] = None
 
@@ -117,6 +168,10 @@ class Setup:
         except ImportError as e:
             raise ValueError(f"{where} [robot]: ibvs.robot is not available ({e})") from None
         options = {k: v for k, v in table.items() if k != "kind"}
+        if table["kind"] == "sim":
+            options = _sim_options(options, f"{where} [robot]")
+        elif isinstance(options.get("kinematics"), str):
+            options = _kinematics_option(options, f"{where} [robot]")
         try:
             return open_robot(table["kind"], clock=self.clock, **options)
         except TypeError:
@@ -165,7 +220,7 @@ class Setup:
             initial_pixels=initial, tag_ids=tuple(tr.get("tag_ids", (0,))), output="joint_velocities",
             eMc=np.eye(4), joint_names=names, max_joint_speed=sv.get("max_joint_speed"),
             lost_timeout=float(sv.get("lost_timeout", 0.2)), fps=float(camera.fps))
-        self.predictor = FeaturePredictor(o.latency, o.lag) if o.latency > 0 else None
+        self.predictor = FeaturePredictor(o.latency, o.lag, kinematics=self.kinematics) if o.latency > 0 else None
         clock = self.clock
         core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),
                              jacobian=lambda q: self.kinematics.jacobian(q), predictor=self.predictor)

@@ -29,6 +29,9 @@ import numpy as np
 
 __all__ = ["Command", "LimitError", "Limits", "check_command"]
 
+#: A command within a limit to this relative rounding (a velocity computed at the limit) is not scaled.
+ROUNDING = 1e-12
+
 
 class LimitError(ValueError):
     """A command refused by the limits: it was not sent (and the robot was stopped)."""
@@ -168,7 +171,7 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
     reasons = []
     # The velocity limit: one scale for all joints (direction kept).
     ratio = np.abs(req) / limits.dq_max
-    s_v = 1.0 if ratio.max() <= 1.0 else float(1.0 / ratio.max())
+    s_v = 1.0 if ratio.max() <= 1.0 + ROUNDING else float(1.0 / ratio.max())
     if s_v < 1.0:
         reasons.append(f"joint {int(np.argmax(ratio))} speed {req[int(np.argmax(ratio))]:.4g} > "
                        f"dq_max {limits.dq_max[int(np.argmax(ratio))]:.4g}")
@@ -177,7 +180,7 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
     lo, hi = _scale_interval(req, last, step)
     lo, hi = max(lo, 0.0), min(hi, s_v)
     if lo <= hi:
-        s = hi
+        s = s_v if hi >= s_v * (1.0 - ROUNDING) else hi
         out = s * req
         if s < s_v:
             reasons.append(f"acceleration over {dt:.4g} s > ddq_max (scaled by {s:.4g})")

@@ -238,7 +238,11 @@ class ServoNodeCore:
             return self.ramp_twist()
         depth = self.depth
         if self.predictor is not None and stamp is not None:
-            uv, depth = self.predictor.predict(uv, depth, stamp)
+            try:
+                uv, depth = self.predictor.predict(uv, depth, stamp)
+            except ValueError as e:  # predicted out of the camera's field: as lost features
+                self.last_error = str(e)
+                return self.ramp_twist()
         result = self.servo.update(uv, depth, self.uv_desired, self.depth)
         if str(result.status).endswith("invalid_input"):
             self.last_error = "the servo refused the features (invalid_input)"
@@ -301,6 +305,8 @@ class ServoNodeCore:
 
     def _command(self, twist: np.ndarray):
         p, ns = self.params, int(self.clock())
+        if self.predictor is not None:  # the node's own commands, for the prediction of the next images
+            self.predictor.commanded(ns / t.NS, twist, None if self.mapping is None else self.joint_velocities(twist))
         if p.output == "twist":
             if p.twist_frame == "camera":
                 return twist_msg(twist, self.types, p.camera_frame, ns)

@@ -250,8 +250,9 @@ class RosImageSource(FrameSource):
     """The sensor_msgs/Image messages of `image_topic` in a ROS 2 bag (a rosbag2 directory or an .mcap
     file, read through ibvs.ros), as 8-bit gray, stamped with each message's header stamp (seconds).
     camera: the ibvs.CameraModel of the first message of camera_info_topic when the bag has that topic.
-    Frames are delivered as fast as they are asked for (replay = True: at the pace of their stamps on
-    `clock`, the first one at open). At the end: None, ended."""
+    Frames are delivered as fast as they are asked for; with replay = True at the pace of their stamps on
+    `clock` (default the real one), re-stamped onto it (the first at the time it is read), so that the
+    loop's latencies are on one clock. At the end: None, ended."""
 
     def __init__(self, path, image_topic: str = "/camera/image_raw", camera_info_topic: str = "/camera/camera_info",
                  clock=None, replay: bool = False):
@@ -300,10 +301,11 @@ class RosImageSource(FrameSource):
             self.ended = True
             return None
         stamp = ros.types.stamp_ns(msg, "image") / 1e9
-        if self.replay:
+        if self.replay:  # at the pace of the stamps, re-stamped onto the clock (the first at its time of read)
             if self._t0 is None:
                 self._t0 = (self.clock.now(), stamp)
-            self.clock.sleep_until(self._t0[0] + (stamp - self._t0[1]))
+            stamp = self._t0[0] + (stamp - self._t0[1])
+            self.clock.sleep_until(stamp)
         frame = Frame(ros.gray8(msg), float(stamp), self._index)
         self._index += 1
         return frame

@@ -1,0 +1,149 @@
+"""FrankyRobot end to end against franky-sim over a loopback address: franky-control (libfranka) connects,
+reads the FR3's joints, sends joint velocities that move the simulated joints as commanded, stops; commands
+beyond the limits are clamped or refused and never reach the robot; the server killed mid-run is noticed by
+the next state()/send within one period and stop() does not raise; an address with no robot fails quickly
+with one line. The loop runs on the robot's own clock (FrankyClock), so a franky-sim slowed down by a
+loaded machine gives the same result."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("franky", reason='franky-control is not installed (pip install ".[franka]")')
+pytest.importorskip("franky_sim", reason="franky-sim is not installed (the test extra)")
+
+import franky_sim_server  # noqa: E402
+
+from ibvs.robot import LimitError, Limits, RobotError, open_robot  # noqa: E402
+from ibvs.robot.franky import FrankyRobot, franka_limits  # noqa: E402
+
+RATE = 30.0
+
+
+@pytest.fixture(scope="module")
+def server():
+    proc, host = franky_sim_server.start()
+    yield proc, host
+    franky_sim_server.stop(proc)
+
+
+@pytest.fixture
+def robot(server):
+    r = FrankyRobot(server[1], rate=RATE, clock="robot")
+    r.connect()
+    yield r
+    r.disconnect()
+
+
+def run(r, dq, seconds):
+    """Send dq every period for `seconds` of the robot's time; the commands sent."""
+    sent = []
+    t = r.clock.now()
+    for k in range(int(round(seconds * RATE))):
+        sent.append(r.send_joint_velocity(dq))
+        r.clock.sleep_until(t + (k + 1) / RATE)
+    return sent
+
+
+def settle(r, seconds=0.3):
+    r.clock.sleep_until(r.clock.now() + seconds)
+    return r.state()
+
+
+def test_open_robot_makes_a_franky_robot():
+    r = open_robot("franky", host="127.0.0.1", rate=50.0)
+    assert isinstance(r, FrankyRobot) and r.n_joints == 7 and r.rate == 50.0 and not r.connected
+    assert r.limits.q_max[3] < 0 and r.hold == pytest.approx(3 / 50)
+    for kw, name in [({"host": ""}, "host"), ({"clock": "wall"}, "clock"), ({"hold": 0.001}, "hold"),
+                     ({"relative_dynamics_factor": 2.0}, "relative_dynamics_factor"), ({"model": "ur5"}, "model"),
+                     ({"limits": Limits([0], [1], [1], [1])}, "limits"), ({"stale_after": 0}, "stale_after")]:
+        with pytest.raises(ValueError, match=name):
+            FrankyRobot(**kw)
+
+
+def test_franky_sim_moves_the_joints_as_commanded_and_stops(robot):
+    s0 = robot.state()
+    assert s0.q.shape == (7,) and np.isfinite(s0.q).all()
+    np.testing.assert_allclose(s0.q, [0.0, 0.0, 0.0, -1.57, 0.0, 1.57, 0.785], atol=1e-3)  # franky-sim's home
+    dq = np.array([0.08, 0.0, 0.0, 0.0, 0.0, 0.0, -0.12])
+    sent = run(robot, dq, 0.6)
+    assert not any(c.clamped for c in sent)  # within the speed and acceleration limits
+    moving = robot.state()
+    robot.stop()
+    s1 = settle(robot)
+    # stopped: the joints hold still (franky-sim's last joint then chatters at ~0.08 rad/s in its velocity
+    # reading with a position that stays within 1e-4 rad: positions, not velocities, tell)
+    assert np.abs(settle(robot, 0.2).q - s1.q).max() < 1e-3
+    # the moved joints went the commanded way by about the commanded amount (franky ramps up the speed
+    # with its jerk limits: less than dq * T, more than half of it); the others held still
+    elapsed = moving.stamp - s0.stamp
+    moved = s1.q - s0.q
+    ratio = moved[[0, 6]] / (dq[[0, 6]] * elapsed)
+    assert ((ratio > 0.5) & (ratio < 1.15)).all(), (ratio, moved)
+    assert np.abs(moved[1:6]).max() < 3e-3, moved
+    assert moving.dq[0] == pytest.approx(dq[0], rel=0.2)  # joint 0 reached its speed (joint 6 chatters)
+
+
+def test_franky_limits_clamp_or_refuse_and_never_send(robot, server):
+    # beyond dq_max: scaled with the direction kept, what reached the robot within dq_max
+    fast = np.array([5.0, 0, 0, 0, 0, 0, 2.5])
+    cmds = run(robot, fast, 0.1)
+    assert all(c.clamped and np.all(np.abs(c.dq) <= robot.limits.dq_max + 1e-12) for c in cmds)
+    assert cmds[-1].dq[0] == pytest.approx(2 * cmds[-1].dq[6])
+    robot.stop()
+    s = settle(robot)
+    # a command that would pass joint 0's position limit within one period: refused, nothing sent
+    tight = Limits(np.r_[s.q[0] - 0.5, robot.limits.q_min[1:]], np.r_[s.q[0] + 0.001, robot.limits.q_max[1:]],
+                   robot.limits.dq_max, robot.limits.ddq_max)
+    r = FrankyRobot(server[1], limits=tight, rate=RATE, clock="robot")
+    with r:
+        before = r.state()
+        with pytest.raises(LimitError, match="joint 0"):
+            r.send_joint_velocity([0.1, 0, 0, 0, 0, 0, 0])
+        with pytest.raises(ValueError, match=r"dq\[2\]"):
+            r.send_joint_velocity([0, 0, np.nan, 0, 0, 0, 0])
+        after = settle(r, 0.2)
+        assert r.last_command is None
+        assert np.abs(after.q - before.q).max() < 1e-3
+
+
+def test_franky_sim_killed_mid_run_is_noticed_within_one_period():
+    proc, host = franky_sim_server.start()
+    try:
+        r = FrankyRobot(host, rate=RATE, clock="robot")
+        r.connect()
+        run(r, np.array([0.05, 0, 0, 0, 0, 0, 0]), 0.2)
+    finally:
+        franky_sim_server.stop(proc)
+    # the next read (or send) is at least one period later in any loop: the state has not changed since
+    r.clock = type("Wall", (), {"now": staticmethod(lambda: 0.0)})()  # the robot's clock is gone with it
+    import time
+    time.sleep(1.0 / RATE)
+    with pytest.raises(RobotError, match="no new state from the robot .* the link is lost"):
+        r.state()
+    with pytest.raises(RobotError, match="lost"):
+        r.send_joint_velocity(np.zeros(7))
+    r.stop()
+    r.disconnect()
+    assert not r.connected
+
+
+def test_no_robot_at_the_address_fails_quickly_with_one_line():
+    r = FrankyRobot("127.251.13.7", rate=RATE)
+    with pytest.raises(RobotError) as e:
+        r.connect()
+    msg = str(e.value)
+    assert "\n" not in msg and "cannot connect" in msg and "127.251.13.7" in msg, msg
+    assert not r.connected
+    r.disconnect()
+    with pytest.raises(RobotError, match="not connected"):
+        r.state()
+
+
+def test_franka_limits():
+    lim = franka_limits("panda", margin=0.1, speed_factor=1.0)
+    assert lim.q_min[0] == pytest.approx(-2.7973) and lim.dq_max[0] == pytest.approx(2.175)
+    for kw in ({"model": "kuka"}, {"margin": 2.0}, {"speed_factor": 0.0}, {"acceleration_factor": 1.5}):
+        with pytest.raises(ValueError):
+            franka_limits(**kw)
