@@ -86,9 +86,10 @@ class MujocoRobot(Robot):
     clock    None or this world's PhysicsClock (the robot's clock is always its world's: self.clock)
     """
 
-    def __init__(self, world: Optional[World] = None, limits: Optional[Limits] = None, rate: Optional[float] = None,
-                 dry_run: bool = False, clock=None, case: str = "arm_general_motion", arm: str = "panda",
-                 width: int = 320, height: int = 240, fps: float = 30.0):
+    def __init__(self, world: Optional[World] = None, limits: Optional[Limits] = None,
+                 rate: Optional[float] = None, dry_run: bool = False, clock=None,
+                 case: str = "arm_general_motion", arm: str = "panda", width: int = 320, height: int = 240,
+                 fps: float = 30.0):
         if world is None:
             world = _case_world(case, arm, width, height, fps)
         self.world = _world(world)
@@ -140,8 +141,8 @@ class MujocoCamera(FrameSource):
         if isinstance(latency, bool) or not isinstance(latency, (int, float)) or not 0 <= latency < 60:
             raise ValueError(f"latency must be a number of seconds in [0, 60), got {latency!r}")
         if latency > world.history - 2.0 / self.rate:
-            raise ValueError(f"latency {latency!r} s: the world keeps {world.history:g} s of the past; build it with "
-                             f"World(..., history=) longer than the latency plus two frames")
+            raise ValueError(f"latency {latency!r} s: the world keeps {world.history:g} s of the past; build "
+                             f"it with World(..., history=) longer than the latency plus two frames")
         self.latency = float(latency)
         self._start = start
         self._next = 0
@@ -178,4 +179,5 @@ class MujocoCamera(FrameSource):
         self._open = False
 
     def __repr__(self) -> str:
-        return f"MujocoCamera({self.world.width}x{self.world.height}, {self.rate:g} Hz, latency {self.latency:g} s)"
+        w = self.world
+        return f"MujocoCamera({w.width}x{w.height}, {self.rate:g} Hz, latency {self.latency:g} s)"

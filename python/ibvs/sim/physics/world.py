@@ -32,12 +32,16 @@ The camera: MuJoCo's camera looks along its -z with y up; the ibvs camera frame 
 z forward) is it turned by pi about x. Its intrinsics are the CameraModel's (focal lengths in pixels
 as focal / sensor size, the principal point at the image centre: u0 = (width - 1) / 2 in OpenCV's
 pixel-centre convention, which is OpenGL's width / 2), so CameraModel.project gives the pixels of the
-rendered points (tests/python/test_physics.py checks the dots to 0.5 px).
+rendered points.
 
 The target: a plane holding the texture ibvs.vision.Renderer draws (dots, tag...; texture columns
-along the target's x, rows along its y), seen from the target's -z side (eye-to-hand: a static plane moved with the flange before each render, as MuJoCo allows
-planes in static bodies only; it has neither mass nor contacts), lit by the headlight alone
-(ambient 1, no diffuse or specular light: the rendered gray levels are the texture's).
+along the target's x, rows along its y), seen from the target's -z side, lit by the headlight alone
+(ambient 1, no diffuse or specular light: the rendered gray levels are the texture's). Eye-to-hand, it
+is a static plane moved with the flange before each render (MuJoCo allows planes in static bodies
+only); it has neither mass nor contacts.
+
+The rendered dots' centroids and the tag's corners are within 0.5 px of CameraModel.project (160x120,
+320x240; in practice 0.03-0.05 px): tests/python/test_physics.py.
 """
 
 from __future__ import annotations
@@ -93,8 +97,8 @@ def _check_camera(camera) -> tuple:
         raise TypeError(f"camera must be an ibvs.CameraModel, got {type(camera).__name__}")
     w, h = camera.width, camera.height
     if camera.distortion != "none" or w != int(w) or h != int(h) or w < 1 or h < 1:
-        raise ValueError("camera must be a pinhole (distortion 'none') with an integer width and height in pixels, "
-                         f"got distortion {camera.distortion!r}, {w} x {h}")
+        raise ValueError("camera must be a pinhole (distortion 'none') with an integer width and height "
+                         f"in pixels, got distortion {camera.distortion!r}, {w} x {h}")
     if abs(camera.u0 - (w - 1) / 2) > 1e-9 * w or abs(camera.v0 - (h - 1) / 2) > 1e-9 * h:
         raise ValueError(f"camera: the principal point must be centred ((width - 1) / 2, (height - 1) / 2) = "
                          f"({(w - 1) / 2}, {(h - 1) / 2}), got ({camera.u0}, {camera.v0})")
@@ -220,9 +224,9 @@ class World:
         # eye-to-hand: MuJoCo allows planes in static bodies only; the plane (massless, contact-free: no dynamics)
         # is in the world and moved to flange <- plane P each time the scene is posed (_posed)
         self._plane_on_flange = None if eye_in_hand else P
-        spec.worldbody.add_geom(name="target", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent[0] / 2, extent[1] / 2, 1.0],
-                        pos=P[:3, 3], quat=_quat(P[:3, :3]), material="target", contype=0, conaffinity=0,
-                        mass=0.0)
+        spec.worldbody.add_geom(name="target", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                size=[extent[0] / 2, extent[1] / 2, 1.0], pos=P[:3, 3], quat=_quat(P[:3, :3]),
+                                material="target", contype=0, conaffinity=0, mass=0.0)
 
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
@@ -287,7 +291,7 @@ class World:
 
     @property
     def torque(self) -> np.ndarray:
-        """Each joint's actuator torque now (velocity loop + gravity compensation, within the effort limit), N m."""
+        """Each joint's actuator torque now, N m: velocity loop + gravity compensation, within the effort limit."""
         return self.data.qfrc_actuator[self._vadr].copy()
 
     def command(self, dq) -> None:
