@@ -194,7 +194,13 @@ def latency_table(res) -> str:
             spans[(r["delay_ms"], r["compensated"])].append(r["gain"])
 
     def span(gs):
-        return f"{min(gs):g} – {max(gs):g}" if gs else "none"
+        """"a – b" when every gain tried from a to b is good, else the good gains listed."""
+        if not gs:
+            return "none"
+        idx = [res["gains"].index(g) for g in gs]
+        if idx == list(range(idx[0], idx[-1] + 1)):
+            return f"{gs[0]:g} – {gs[-1]:g}" if len(gs) > 1 else f"{gs[0]:g}"
+        return ", ".join(f"{g:g}" for g in gs)
 
     lines = [f"| delay (ms) | testbed {res.get('scheme', 'polar')}, uncompensated: gains (1/s) "
              f"| testbed {res.get('scheme', 'polar')}, compensated: gains (1/s) |",
