@@ -64,6 +64,7 @@ TIMESTEP = 1e-3  # s: physics at 1 kHz
 TAU = 0.01  # s: the velocity loop's time constant at the reference posture
 ARMATURE = 0.1  # kg m^2 (see the module's docstring)
 DAMPING = 0.1  # N m s / rad
+MAX_SPEED = 1e3  # rad/s (m/s): the largest joint velocity command World.command takes
 # The camera's turn from MuJoCo's (x right, y up, looking along -z) to ibvs's (x right, y down, z forward).
 _FLIP = np.diag([1.0, -1.0, -1.0])
 
@@ -295,8 +296,12 @@ class World:
         return self.data.qfrc_actuator[self._vadr].copy()
 
     def command(self, dq) -> None:
-        """The joint velocities (n,) the actuators track from now on."""
-        self.data.ctrl[self._act] = self._vector(dq, "dq")
+        """The joint velocities (n,) the actuators track from now on: finite, within +-MAX_SPEED (MuJoCo resets a
+        simulation whose controls are huge: refused here instead)."""
+        dq = self._vector(dq, "dq")
+        if not (np.abs(dq) <= MAX_SPEED).all():
+            raise ValueError(f"dq must be within +-{MAX_SPEED:g} (rad/s or m/s), got {dq.tolist()}")
+        self.data.ctrl[self._act] = dq
 
     @property
     def commanded(self) -> np.ndarray:
