@@ -76,9 +76,9 @@ def through_loop(case, scheme: str, gain: float, camera, duration: float) -> dic
 def compare(args) -> None:
     w, h = (int(x) for x in args.size.split("x"))
     camera = physics.testbed_camera(w, h, fps=30.0)
-    print(f"camera {w}x{h} at 30 fps, gain {args.gain}, tolerance 0.5 px, exact depth, {args.duration} s at most\n")
-    print("| case | scheme | sim | outcome | frames to converge | overshoot | joint tracking RMS (rad/s) "
-          "| peak torque / limit (worst joint) | final camera error (mm) |")
+    print(f"camera {w}x{h} at 30 fps, gain {args.gain}, tolerance 0.5 px, {args.duration} s at most\n")
+    print("| case | scheme | run | outcome | frames | overshoot | tracking RMS (rad/s) | peak torque / limit "
+          "| camera error (mm) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for case, scheme in cases(args.cases):
         runs = (("kinematic", kinematic), ("physics", dynamic))
@@ -163,7 +163,7 @@ def latency(args) -> None:
             for compensate in (False, True):
                 for g in args.gains:
                     duration = min(10.0, max(2.0, 7.0 / g)) + d / 1e3
-                    r = physics.run_loop(case, "polar", float(g), camera=camera, duration=duration, latency=d / 1e3,
+                    r = physics.run_loop(case, args.scheme, float(g), camera=camera, duration=duration, latency=d / 1e3,
                                          compensate=compensate, lag=args.lag if compensate else 0.0,
                                          tolerance_px=None, world=world)
                     final = float(np.linalg.norm(r.error[-1].reshape(-1, 2), axis=1).max()) if len(r.error) else \
@@ -175,6 +175,7 @@ def latency(args) -> None:
                     if args.verbose:
                         print(runs[-1], flush=True)
     res = {"gains": list(args.gains), "delays_ms": list(args.delays), "size": args.size, "lag": args.lag,
+           "scheme": args.scheme,
            "runs": runs}
     if args.json:
         with open(args.json, "w") as f:
@@ -193,9 +194,16 @@ def latency_table(res) -> str:
             spans[(r["delay_ms"], r["compensated"])].append(r["gain"])
 
     def span(gs):
-        return f"{min(gs):g} – {max(gs):g}" if gs else "none"
+        """"a – b" when every gain tried from a to b is good, else the good gains listed."""
+        if not gs:
+            return "none"
+        idx = [res["gains"].index(g) for g in gs]
+        if idx == list(range(idx[0], idx[-1] + 1)):
+            return f"{gs[0]:g} – {gs[-1]:g}" if len(gs) > 1 else f"{gs[0]:g}"
+        return ", ".join(f"{g:g}" for g in gs)
 
-    lines = ["| delay (ms) | testbed, uncompensated: gains (1/s) | testbed, compensated: gains (1/s) |",
+    lines = [f"| delay (ms) | testbed {res.get('scheme', 'polar')}, uncompensated: gains (1/s) "
+             f"| testbed {res.get('scheme', 'polar')}, compensated: gains (1/s) |",
              "|---:|---|---|"]
     for d in res["delays_ms"]:
         lines.append(f"| {d:g} | {span(spans[(d, False)])} | {span(spans[(d, True)])} |")
@@ -218,6 +226,7 @@ def main() -> None:
     lat.add_argument("--size", default="320x240")
     lat.add_argument("--delays", type=float, nargs="+", default=[0, 25, 50, 75, 100, 125, 150], metavar="MS")
     lat.add_argument("--gains", type=float, nargs="+", default=list(GAINS))
+    lat.add_argument("--scheme", default="polar", choices=("polar", "cartesian"))
     lat.add_argument("--lag", type=float, default=0.0, help="the robot's velocity lag given to the predictor (s)")
     lat.add_argument("--json", help="write the runs there")
     lat.add_argument("--verbose", action="store_true")

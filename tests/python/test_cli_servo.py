@@ -72,9 +72,12 @@ def test_unreachable_robot_is_status_2(tmp_path, capsys):
         pytest.skip("ibvs.robot is not merged")
     if "franky" not in ROBOTS:
         pytest.skip("no franky adapter")
-    path = _config(tmp_path, ('kind = "sim"', f'kind = "franky"\nhost = "127.0.0.1:{port}"'))
+    text = EXAMPLE.read_text()
+    start, end = text.index("\n[robot]") + 1, text.index("\n[loop]") + 1
+    path = tmp_path / "servo.toml"
+    path.write_text(text[:start] + f'[robot]\nkind = "franky"\nhost = "127.0.0.1:{port}"\nkinematics = "panda"\n\n' + text[end:])
     line = _one_line_error(capsys, ["servo", str(path)])
-    assert "franky" in line
+    assert "franky" in line and "RobotError" in line and "cannot connect" in line, line
 
 
 def test_example_config_runs_and_stops(tmp_path):

@@ -86,6 +86,13 @@ SHRINK = {
     # The full run (about 2 min) rewrites the arms page's table; here 2 starts, written into the test's folder.
     ("docs/arms.md", "python docs/scripts/joint_limits.py"): [
         ("python docs/scripts/joint_limits.py\n", "python docs/scripts/joint_limits.py --quick --docs .\n")],
+    # The physics testbed (docs/physics.md): one short case, one delay and gain, a fraction of a simulated second.
+    ("docs/physics.md", "physics.py compare"): [
+        ("--size 320x240 --duration 15", "--size 160x120 --duration 1 --cases general")],
+    ("docs/physics.md", "physics.py latency"): [
+        ("--json docs/figures/physics_latency.json", "--size 160x120 --delays 50 --gains 2"),
+        ("--json docs/figures/physics_latency_cartesian.json", "--size 160x120 --delays 50 --gains 2")],
+    ("docs/physics.md", "physics.py bench"): [("--seconds 5", "--seconds 0.2")],
     # The full study (about 10 min) wrote the page's table and figure; here two delays, one gain, one servo.
     ("docs/servo-loop.md", "docs/scripts/latency.py"): [
         ("--delays 0 25 50 75 100 125 150 --out docs/figures/latency.png",

@@ -197,17 +197,31 @@ def test_injected_latency_is_measured_and_late_frames_counted():
     assert not robot.moving_after_exit()
 
 
-def test_compensation_off_is_bit_for_bit_the_servo_on_the_measured_points():
-    # Two identical runs, one with a predictor whose delay spans no command: the same twists to the bit
-    # (the prediction adds zero motion); and a core without predictor = the servo on the measured points.
-    w1, w2 = lw.world(), lw.world()
-    l1, r1 = lw.loop(w1, options=LoopOptions(duration=0.3, signals=False))
-    l2, r2 = lw.loop(w2, options=LoopOptions(duration=0.3, signals=False))
-    l1.run()
-    l2.run()
-    s1 = [c[1] for c in r1.calls if isinstance(c, tuple)]
-    s2 = [c[1] for c in r2.calls if isinstance(c, tuple)]
-    assert len(s1) == len(s2) and all(np.array_equal(a, b) for a, b in zip(s1, s2))
+def test_without_latency_the_servo_sees_the_measured_points_bit_for_bit():
+    """No predictor (latency 0, the default): each twist is, to the bit, the servo's on the tracked points,
+    computed here independently (a fresh tracker and servo of the same scheme), frame after frame."""
+    from ibvs import vision
+    from ibvs.study import schemes
+
+    w = lw.world()
+    loop, robot = lw.loop(w, options=LoopOptions(duration=0.2, signals=False))
+    assert loop.predictor is None and loop.core.predictor is None
+    tracker = vision.DotTracker(4, (int(w.camera.width), int(w.camera.height)))
+    tracker.reset(w.start_pixels)
+    servo = schemes.make("polar", 1.0, 4)
+    servo.max_linear_speed, servo.max_angular_speed = 0.5, 1.5
+    inner, twists = loop.core.twist_of_image, []
+
+    def both(image, stamp=None):
+        got = inner(image, stamp)
+        uv = w.camera.normalize(tracker.track(image).pixels)
+        want = servo.update(uv, np.full(4, 0.6), w.camera.normalize(w.goal), np.full(4, 0.6)).velocity
+        twists.append((got, np.array(want)))
+        return got
+
+    loop.core.twist_of_image = both
+    loop.run()
+    assert len(twists) > 5 and all(np.array_equal(a, b) for a, b in twists)
 
 
 def test_compensation_removes_the_delay_overshoot():

@@ -14,6 +14,8 @@ pytest.importorskip("pinocchio", reason="the robots extra (pin) is not installed
 pytest.importorskip("cv2", reason="the vision extra (OpenCV) is not installed")
 
 import ibvs  # noqa: E402
+import ibvs.loop  # noqa: E402
+import ibvs.robot  # noqa: E402
 from ibvs import sim  # noqa: E402
 from ibvs.sim import physics  # noqa: E402
 from ibvs.sim.physics.episode import overshoot  # noqa: E402
@@ -69,6 +71,15 @@ def test_rendered_dots_are_where_the_camera_model_projects_them(panda_case, size
             found = tracker.track(world.render(q)).pixels
             assert np.isfinite(found).all()
             assert np.abs(found - expected).max() <= 0.5, (found - expected)
+
+
+def test_rendered_tag_is_detected_where_the_camera_model_projects_its_corners(panda_case):
+    case = panda_case
+    with physics.World(case.robot, case.target, physics.testbed_camera(320, 240), kind="tag") as world:
+        detector = ibvs.vision.TagDetector((0,), image_size=(320, 240))
+        for q in (case.goal, case.start):
+            found = detector.track(world.render(q)).pixels
+            assert np.abs(found - _projections(case, world, q)).max() <= 0.5
 
 
 def test_velocity_step_response(panda_world):
@@ -163,6 +174,57 @@ def test_general_motion_converges_on_the_panda_with_dynamics(panda_case):
     assert (r.peak_torque <= r.effort + 1e-9).all() and r.tracking_rms > 0
 
 
+def test_general_motion_converges_through_the_servo_loop(panda_case):
+    """The loop that drives real robots (ibvs.loop.ServoLoop) on the testbed: MujocoCamera, MujocoRobot,
+    PhysicsClock."""
+    r = physics.run_loop(panda_case, "cartesian", 1.5, camera=physics.testbed_camera(160, 120), duration=8.0)
+    assert r.converged, r.outcome
+    assert r.final_translation_error < 5e-3 and r.overshoot < 0.05
+    assert np.isfinite(r.pose_error).all() and len(r.pose_error) >= len(r.time) - 1  # stepped after frame 0
+    assert (r.peak_torque <= r.effort + 1e-9).all()
+
+
+def test_mujoco_robot_checks_every_command(panda_world):
+    world = panda_world
+    q0 = np.array(sim.cases.ARMS["panda"][0])
+    world.reset(q0)
+    robot = ibvs.robot.open_robot("mujoco", world=world)
+    assert isinstance(robot, ibvs.robot.Robot) and robot.n_joints == 7 and robot.rate == world.camera.fps
+    with pytest.raises(ibvs.robot.RobotError, match="connect"):
+        robot.state()
+    with robot:
+        s = robot.state()
+        assert np.array_equal(s.q, q0) and s.stamp == world.time
+        cmd = robot.send_joint_velocity(np.full(7, 10.0))  # beyond dq_max and the acceleration limit
+        assert cmd.clamped and np.allclose(world.commanded, cmd.dq)
+        assert (np.abs(cmd.dq) <= robot.limits.dq_max + 1e-12).all()
+        assert (np.abs(cmd.dq) <= robot.limits.ddq_max / robot.rate + 1e-12).all()  # from rest, one period
+        robot.clock.sleep_until(0.1)
+        assert abs(robot.state().stamp - 0.1) < 1e-9 and np.abs(robot.state().dq).max() > 0
+        with pytest.raises(ValueError):
+            robot.send_joint_velocity(np.full(7, np.nan))  # refused: never sent, the robot stopped
+        assert not world.commanded.any()
+    assert not world.commanded.any() and not robot.connected  # leaving the block stops it
+
+
+def test_mujoco_robot_from_a_config_table():
+    """What an `ibvs servo` config's [robot] table can give: kind = "mujoco", a case of ibvs.sim.cases and an arm."""
+    robot = ibvs.robot.open_robot("mujoco", case="arm_general_motion", arm="ur5", width=32, height=24)
+    try:
+        case = robot.world.case
+        assert case.name == "ur5_general_motion" and robot.n_joints == 6
+        assert np.array_equal(robot.world.q, case.start) and robot.rate == 30.0
+        assert isinstance(robot.clock, physics.PhysicsClock) and robot.clock.world is robot.world
+        with pytest.raises(TypeError, match="clock"):
+            physics.MujocoRobot(robot.world, clock=ibvs.loop.SimClock())
+    finally:
+        robot.world.close()
+    with pytest.raises(ValueError, match="case"):
+        physics.MujocoRobot(case="no_such_case")
+    with pytest.raises(ValueError, match="case"):
+        physics.MujocoRobot(case="x_translation")  # a free-flying case: no arm
+
+
 def test_bad_arguments(panda_case):
     case = panda_case
     with pytest.raises(TypeError, match="robot"):
@@ -188,7 +250,7 @@ def test_bad_commands_and_state(panda_world):
     with pytest.raises(ValueError, match="t must be finite"):
         world.step_to(float("inf"))
     with pytest.raises(TypeError, match="world"):
-        physics.MujocoRobot(None)
+        physics.MujocoRobot("panda")
     with pytest.raises(ValueError, match="latency"):
         physics.MujocoCamera(world, latency=-1.0)
 

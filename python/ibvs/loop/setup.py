@@ -81,6 +81,26 @@ def _sim_options(options: Dict[str, Any], where: str) -> Dict[str, Any]:
     return out
 
 
+def _kinematics_option(options: Dict[str, Any], where: str) -> Dict[str, Any]:
+    """A hardware driver's kinematics = "panda" / "ur5" (example-robot-data's arm, ibvs.sim.cases.arm_robot)
+    or "gantry", with mount = { t, r_deg } its camera's eMc (default the cases' mount)."""
+    from .. import sim
+    from .config import pose_of
+
+    out = dict(options)
+    name = out.pop("kinematics")
+    mount = out.pop("mount", None)
+    if name not in SIM_MODELS or name == "free":
+        raise ValueError(f"{where} kinematics: must be one of gantry, panda, ur5, got {name!r}")
+    eMc = None if mount is None else pose_of(mount, f"{where} mount")
+    if name == "gantry":
+        model = sim.Gantry.afma6() if eMc is None else sim.Gantry.afma6().with_mount(eMc)
+    else:
+        model = sim.cases.arm_robot(name, eMc)
+    out["kinematics"] = model
+    return out
+
+
 def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, pose=None, target=None,
                 where: str = "[source]", robot=None):
     """The FrameSource of a [source] table (not opened)."""
@@ -96,8 +116,9 @@ def open_source(kind: str, table: Dict[str, Any], camera, clock: Clock, base, po
             (base / dev).exists() else dev
         return sources.OpenCVCapture(dev, clock=clock, camera=camera, **t)
     if kind == "mujoco":  # the physics testbed's camera, in the world of the mujoco robot
-        from ..sim.physics import MujocoCamera
+        import importlib  # by name, as ibvs.robot's registry opens the mujoco robot: the physics extra's module
 
+        MujocoCamera = importlib.import_module("ibvs.sim.physics").MujocoCamera
         if robot is None or getattr(robot, "world", None) is None:
             raise ValueError(f"{where}: a mujoco source needs the mujoco robot ([robot] kind = \"mujoco\")")
         return MujocoCamera(robot.world, rate=t.get("rate"), latency=float(t.get("latency", 0.0)))
@@ -161,6 +182,8 @@ class Setup:
         options = {k: v for k, v in table.items() if k != "kind"}
         if table["kind"] == "sim":
             options = _sim_options(options, f"{where} [robot]")
+        elif isinstance(options.get("kinematics"), str):
+            options = _kinematics_option(options, f"{where} [robot]")
         try:
             return open_robot(table["kind"], clock=self.clock, **options)
         except TypeError:

@@ -36,6 +36,26 @@ def _world(world) -> World:
     return world
 
 
+def _case_world(case: str, arm: str, width: int, height: int, fps: float) -> World:
+    """A World for ibvs.sim.cases.<case>(arm) seen by testbed_camera(width, height, fps), at the case's start."""
+    from .. import cases
+    from .world import testbed_camera
+
+    make = getattr(cases, case, None) if isinstance(case, str) else None
+    if make is None or not callable(make) or case.startswith("_"):
+        raise ValueError(f"case must name a function of ibvs.sim.cases (e.g. 'arm_general_motion'), got {case!r}")
+    try:
+        c = make(arm)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"case {case!r} with arm {arm!r}: {e}") from None
+    if c.robot is None or not hasattr(c.robot, "example_name"):
+        raise ValueError(f"case {case!r}: not an arm of example-robot-data")
+    world = World(c.robot, c.target, testbed_camera(width, height, fps))
+    world.reset(c.start)
+    world.case = c
+    return world
+
+
 class PhysicsClock(Clock):
     """The world's simulated time: now() is it; sleep_until(t) steps the physics to t (at once when past)."""
 
@@ -56,16 +76,25 @@ class MujocoRobot(Robot):
     ibvs.robot.check_command (the one limit check, period 1/rate) and hands what it allows to the velocity
     actuators; state() reads qpos/qvel, stamped with the simulated time (clock: a PhysicsClock).
 
-    world    the World
+    world    the World; None: one built from `case` (a function of ibvs.sim.cases taking the arm's name, e.g.
+             "arm_general_motion") on `arm` ("panda", "ur5"), seen by testbed_camera(width, height, fps), its
+             joints at the case's start (what an `ibvs servo` config's [robot] table can name)
     limits   an ibvs.robot.Limits; default: the URDF's position and velocity limits, PANDA_DDQ_MAX for the
              Panda (DEFAULT_DDQ_MAX for other arms)
     rate     Hz of the commands (the limit check's period; default the camera's frame rate: one command a frame)
     dry_run  check and return commands, send none
+    clock    None or this world's PhysicsClock (the robot's clock is always its world's: self.clock)
     """
 
-    def __init__(self, world: World, limits: Optional[Limits] = None, rate: Optional[float] = None,
-                 dry_run: bool = False):
+    def __init__(self, world: Optional[World] = None, limits: Optional[Limits] = None,
+                 rate: Optional[float] = None, dry_run: bool = False, clock=None,
+                 case: str = "arm_general_motion", arm: str = "panda", width: int = 320, height: int = 240,
+                 fps: float = 30.0):
+        if world is None:
+            world = _case_world(case, arm, width, height, fps)
         self.world = _world(world)
+        if clock is not None and not (isinstance(clock, PhysicsClock) and clock.world is world):
+            raise TypeError("clock: the mujoco robot keeps its world's time (PhysicsClock); give none")
         arm = world.robot
         if limits is None:
             ddq = PANDA_DDQ_MAX if arm.example_name == "panda" else (DEFAULT_DDQ_MAX,) * arm.dof
@@ -111,6 +140,9 @@ class MujocoCamera(FrameSource):
             raise ValueError(f"rate must be a positive number (Hz), got {rate!r}")
         if isinstance(latency, bool) or not isinstance(latency, (int, float)) or not 0 <= latency < 60:
             raise ValueError(f"latency must be a number of seconds in [0, 60), got {latency!r}")
+        if latency > world.history - 2.0 / self.rate:
+            raise ValueError(f"latency {latency!r} s: the world keeps {world.history:g} s of the past; build "
+                             f"it with World(..., history=) longer than the latency plus two frames")
         self.latency = float(latency)
         self._start = start
         self._next = 0
@@ -147,4 +179,5 @@ class MujocoCamera(FrameSource):
         self._open = False
 
     def __repr__(self) -> str:
-        return f"MujocoCamera({self.world.width}x{self.world.height}, {self.rate:g} Hz, latency {self.latency:g} s)"
+        w = self.world
+        return f"MujocoCamera({w.width}x{w.height}, {self.rate:g} Hz, latency {self.latency:g} s)"

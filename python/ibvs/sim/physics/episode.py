@@ -234,8 +234,8 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
             report = ServoLoop(source, robot, core, clock, options, predictor).run()
         finally:
             world.listeners.remove(note)
-        frames = [r for r in map(json.loads, open(log)) if r.get("kind", r.get("type")) == "frame"
-                  or "pixels" in r]
+        with open(log) as f:
+            frames = [r for r in map(json.loads, f) if r.get("kind") == "frame"]
         px = np.array([np.asarray(r["pixels"], dtype=float) for r in frames])
         error = (px - desired).reshape(len(px), -1)
         stats = world.monitor(False)

@@ -32,12 +32,16 @@ The camera: MuJoCo's camera looks along its -z with y up; the ibvs camera frame 
 z forward) is it turned by pi about x. Its intrinsics are the CameraModel's (focal lengths in pixels
 as focal / sensor size, the principal point at the image centre: u0 = (width - 1) / 2 in OpenCV's
 pixel-centre convention, which is OpenGL's width / 2), so CameraModel.project gives the pixels of the
-rendered points (tests/python/test_physics.py checks the dots to 0.5 px).
+rendered points.
 
 The target: a plane holding the texture ibvs.vision.Renderer draws (dots, tag...; texture columns
-along the target's x, rows along its y), seen from the target's -z side (eye-to-hand: a static plane moved with the flange before each render, as MuJoCo allows
-planes in static bodies only; it has neither mass nor contacts), lit by the headlight alone
-(ambient 1, no diffuse or specular light: the rendered gray levels are the texture's).
+along the target's x, rows along its y), seen from the target's -z side, lit by the headlight alone
+(ambient 1, no diffuse or specular light: the rendered gray levels are the texture's). Eye-to-hand, it
+is a static plane moved with the flange before each render (MuJoCo allows planes in static bodies
+only); it has neither mass nor contacts.
+
+The rendered dots' centroids and the tag's corners are within 0.5 px of CameraModel.project (160x120,
+320x240; in practice 0.03-0.05 px): tests/python/test_physics.py.
 """
 
 from __future__ import annotations
@@ -60,6 +64,7 @@ TIMESTEP = 1e-3  # s: physics at 1 kHz
 TAU = 0.01  # s: the velocity loop's time constant at the reference posture
 ARMATURE = 0.1  # kg m^2 (see the module's docstring)
 DAMPING = 0.1  # N m s / rad
+MAX_SPEED = 1e3  # rad/s (m/s): the largest joint velocity command World.command takes
 # The camera's turn from MuJoCo's (x right, y up, looking along -z) to ibvs's (x right, y down, z forward).
 _FLIP = np.diag([1.0, -1.0, -1.0])
 
@@ -93,8 +98,8 @@ def _check_camera(camera) -> tuple:
         raise TypeError(f"camera must be an ibvs.CameraModel, got {type(camera).__name__}")
     w, h = camera.width, camera.height
     if camera.distortion != "none" or w != int(w) or h != int(h) or w < 1 or h < 1:
-        raise ValueError("camera must be a pinhole (distortion 'none') with an integer width and height in pixels, "
-                         f"got distortion {camera.distortion!r}, {w} x {h}")
+        raise ValueError("camera must be a pinhole (distortion 'none') with an integer width and height "
+                         f"in pixels, got distortion {camera.distortion!r}, {w} x {h}")
     if abs(camera.u0 - (w - 1) / 2) > 1e-9 * w or abs(camera.v0 - (h - 1) / 2) > 1e-9 * h:
         raise ValueError(f"camera: the principal point must be centred ((width - 1) / 2, (height - 1) / 2) = "
                          f"({(w - 1) / 2}, {(h - 1) / 2}), got ({camera.u0}, {camera.v0})")
@@ -137,7 +142,9 @@ class World:
     target      an ibvs.sim.Target with its points in its z = 0 plane; its pose is world <- target
                 (eye-in-hand), or robot frame <- target (eye-to-hand: the target rides on the flange)
     camera      a pinhole ibvs.CameraModel with its principal point centred (testbed_camera())
-    kind        the texture: ibvs.vision.Renderer's kind ("dots", "tag", "disc", "polygon")
+    kind        the texture: ibvs.vision.Renderer's kind ("dots", "tag", "disc", "polygon"...), drawn by
+                Renderer(camera, target, kind, **renderer_options) (dot_radius, tag_id...; its noise and blur
+                are not used: the plate's texture only)
     timestep    s, the physics step (1e-3: 1 kHz; within [1/2000, 1/250])
     tau         s, the velocity loop's time constant at q_ref
     q_ref       joints at which the gains are set (default: ibvs.sim.cases.ARMS's goal for an example arm, else
@@ -146,7 +153,7 @@ class World:
     """
 
     def __init__(self, robot, target, camera, kind: str = "dots", timestep: float = TIMESTEP, tau: float = TAU,
-                 q_ref=None, history: float = 1.0) -> None:
+                 q_ref=None, history: float = 1.0, **renderer_options) -> None:
         mujoco = mujoco_module()
         from ..urdf import UrdfRobot
         from ...vision import Renderer
@@ -201,7 +208,7 @@ class World:
         cam.focal_length = [1.0, 1.0]
 
         # The target plane with ibvs.vision.Renderer's texture (level 1 of its pyramid: 1024 texels across).
-        drawn = Renderer(camera, target, kind=kind)
+        drawn = Renderer(camera, target, kind=kind, **renderer_options)
         tex = np.clip(np.rint(drawn._pyramid[1]), 0, 255).astype(np.uint8)
         rows, cols = drawn._pyramid[0].shape
         extent = np.array([cols, rows]) * drawn._d0
@@ -218,9 +225,9 @@ class World:
         # eye-to-hand: MuJoCo allows planes in static bodies only; the plane (massless, contact-free: no dynamics)
         # is in the world and moved to flange <- plane P each time the scene is posed (_posed)
         self._plane_on_flange = None if eye_in_hand else P
-        spec.worldbody.add_geom(name="target", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent[0] / 2, extent[1] / 2, 1.0],
-                        pos=P[:3, 3], quat=_quat(P[:3, :3]), material="target", contype=0, conaffinity=0,
-                        mass=0.0)
+        spec.worldbody.add_geom(name="target", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                size=[extent[0] / 2, extent[1] / 2, 1.0], pos=P[:3, 3], quat=_quat(P[:3, :3]),
+                                material="target", contype=0, conaffinity=0, mass=0.0)
 
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
@@ -244,6 +251,8 @@ class World:
         self._scratch = mujoco.MjData(m)  # for rendering a past state
         self._renderer = None
         self._stats: Optional[np.ndarray] = None
+        #: the ibvs.sim.cases.Case the world was built for by MujocoRobot(case=...), else None
+        self.case = None
         #: callables listener(world), each called after every step_to that stepped (a recorder's hook)
         self.listeners: list = []
         self._history = np.zeros((max(2, int(round(history / timestep)) + 1), n + 1))
@@ -283,12 +292,16 @@ class World:
 
     @property
     def torque(self) -> np.ndarray:
-        """Each joint's actuator torque now (velocity loop + gravity compensation, within the effort limit), N m."""
+        """Each joint's actuator torque now, N m: velocity loop + gravity compensation, within the effort limit."""
         return self.data.qfrc_actuator[self._vadr].copy()
 
     def command(self, dq) -> None:
-        """The joint velocities (n,) the actuators track from now on."""
-        self.data.ctrl[self._act] = self._vector(dq, "dq")
+        """The joint velocities (n,) the actuators track from now on: finite, within +-MAX_SPEED (MuJoCo resets a
+        simulation whose controls are huge: refused here instead)."""
+        dq = self._vector(dq, "dq")
+        if not (np.abs(dq) <= MAX_SPEED).all():
+            raise ValueError(f"dq must be within +-{MAX_SPEED:g} (rad/s or m/s), got {dq.tolist()}")
+        self.data.ctrl[self._act] = dq
 
     @property
     def commanded(self) -> np.ndarray:
@@ -334,11 +347,16 @@ class World:
         row[0] = self.data.time
         row[1:] = self.data.qpos[self._qadr]
 
+    @property
+    def history(self) -> float:
+        """Seconds of past joint positions kept (q_at reaches that far back)."""
+        return (len(self._history) - 1) * self.timestep
+
     def q_at(self, t: float) -> np.ndarray:
         """The joints at time t (the last step at or before t; ValueError beyond the kept history)."""
         k = self._steps - int(np.ceil((self.data.time - t) / self.timestep - 1e-6))
         if k > self._steps or k < 0 or k < self._steps - len(self._history) + 1:
-            raise ValueError(f"t = {t!r} is outside the kept history [{self.data.time - (len(self._history) - 1) * self.timestep:g}, "
+            raise ValueError(f"t = {t!r} is outside the kept history [{self.data.time - self.history:g}, "
                              f"{self.data.time:g}] s")
         return self._history[k % len(self._history), 1:].copy()
 
