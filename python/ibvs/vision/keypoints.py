@@ -3,7 +3,10 @@
 Per image: keypoints and binary descriptors (ORB, Rublee et al. 2011, or AKAZE, Alcantarilla et al.
 2013) matched to the reference's (brute force, Hamming distance, Lowe's ratio test), then the homography
 reference -> image by cv2.findHomography with RANSAC (ransac_threshold px; its outliers rejected) and a
-least-squares refit on the inliers. The target's points are their reference pixels mapped by it.
+least-squares refit on the inliers, then refined to sub-pixel accuracy by ibvs.vision.planar.refine (the
+reference warped by it, corners of the reference tracked from there by KLT: keypoints of a coarse scale
+are located to a pixel or worse, the refined corners of the plate to a few hundredths). The target's points
+are their reference pixels mapped by it.
 confidence = inliers / matches of the last image; the target is "not_found" (every point) when fewer than
 min_inliers matches support the homography or it is not one a plate in front of the camera gives. Each
 image is searched on its own (no prediction from the last one): a target found again after a loss is
@@ -19,7 +22,7 @@ import numpy as np
 
 from .images import check_real, opencv
 from .klt import _int
-from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask
+from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask, refine
 from .track import Track
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -70,7 +73,9 @@ class KeypointTracker(PlanarTarget):
         if detector == "orb":
             self._features = cv2.ORB_create(nfeatures=self.n_features, fastThreshold=10)
         else:
-            self._features = cv2.AKAZE_create(threshold=3e-4)
+            # OpenCV 5 moved AKAZE to the contrib module xfeatures2d (opencv-contrib-python)
+            akaze = getattr(cv2, "AKAZE_create", None) or cv2.xfeatures2d.AKAZE_create
+            self._features = akaze(threshold=3e-4)
         self._matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
         self._ref = None
         self.pixels = None
@@ -97,6 +102,9 @@ class KeypointTracker(PlanarTarget):
                              f" = {self.min_inliers}): a textureless or too small reference image")
         self._ref = (np.array([k.pt for k in kp], np.float64), desc)
         self._points = pts.copy()
+        self._reference = ref.copy()
+        corners = cv2.goodFeaturesToTrack(ref, 300, 0.01, 5, mask=mask, blockSize=5)
+        self._anchors = np.zeros((0, 2)) if corners is None else corners.reshape(-1, 2).astype(np.float64)
 
     def detect(self, image) -> Track:
         """The target's points in this image (see the class)."""
@@ -121,8 +129,12 @@ class KeypointTracker(PlanarTarget):
                 if H is not None:
                     inl = inl.ravel().astype(bool)
                     self.inliers = int(inl.sum())
-                    if self.inliers >= self.min_inliers:  # least squares on the inliers only
+                    if self.inliers >= self.min_inliers:  # least squares on the inliers only, then refined
                         H = cv2.findHomography(src[inl], dst[inl], 0)[0]
+                        fine = None if H is None or len(self._anchors) < self.min_inliers else refine(
+                            cv2, self._reference, self._anchors, H, image, 21, self.ransac_threshold)
+                        if fine is not None and fine[2].sum() >= self.min_inliers:
+                            H = fine[0]
         if H is None or self.inliers < self.min_inliers or not plausible(H, self._points, self.size):
             self.pixels = np.full((n, 2), np.nan)
             self.inliers = 0 if H is None else self.inliers

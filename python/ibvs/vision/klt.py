@@ -8,7 +8,10 @@ Shi & Tomasi's corners, cv2.goodFeaturesToTrack):
      started, or that either pass loses, or that leaves the image, is dropped;
   2. H = the homography from the features' reference positions (in the first image) to their positions
      now, cv2.findHomography with RANSAC (ransac_threshold px): its outliers are dropped too;
-  3. the target's points are their first-image pixels mapped by H;
+  3. H is refined without drift (ibvs.vision.planar.refine: the first image warped by H, the features
+     tracked from it: a frame-to-frame KLT step is biased by the rotation and scale between the frames,
+     about 1 % of the motion, which would add up), and the features moved to where it finds them;
+     the target's points are their first-image pixels mapped by H;
   4. when fewer than redetect_below x the first image's count remain, new corners are detected inside
      the target's polygon (away from the live ones) and given reference positions by H^-1.
 The target is lost (every point "lost_features") when fewer than min_inliers features support H or H
@@ -23,7 +26,7 @@ from typing import Optional
 import numpy as np
 
 from .images import check_real, opencv
-from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask
+from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask, refine
 from .track import Track
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -99,6 +102,7 @@ class KltTracker(PlanarTarget):
         self._features, self._anchors = feats, feats.copy()  # positions now; in the first image
         self._first_count = len(feats)
         self._prev, self.homography, self.pixels, self._lost = image, np.eye(3), p.copy(), False
+        self._first = image.copy()
 
     @property
     def features(self) -> np.ndarray:
@@ -142,6 +146,10 @@ class KltTracker(PlanarTarget):
             if Hm is not None:
                 inl = inl.ravel().astype(bool)
                 self._features, self._anchors = self._features[inl], self._anchors[inl]
+                fine = refine(cv2, self._first, self._anchors, Hm, image, self.window, self.ransac_threshold)
+                if fine is not None:
+                    Hm, found, keep = fine
+                    self._features, self._anchors = found[keep], self._anchors[keep]
         if (Hm is None or len(self._features) < self.min_inliers
                 or not plausible(Hm, self._reference, self.size)):
             self._lost = True

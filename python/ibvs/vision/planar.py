@@ -105,3 +105,52 @@ class PlanarTarget:
             return None
         pose, _, degenerate = PlanarPose(P).estimate(uv)
         return None if degenerate or not np.isfinite(pose).all() else np.asarray(pose)
+
+
+def refine(cv2, reference: np.ndarray, anchors: np.ndarray, H: np.ndarray, image: np.ndarray, window: int,
+           threshold: float):
+    """H (reference -> image) refined without drift: the reference warped by H into the image, its gray
+    levels matched to the image's (mean and std over the warped area: a lighting change), the anchors
+    (K, 2, reference pixels) tracked from it by cv2.calcOpticalFlowPyrLK (the residual motion is small and
+    has no rotation or scale left, where a frame-to-frame KLT step is biased by them), H fitted again
+    (RANSAC then least squares on its inliers). Returns (H, the anchors' pixels (K, 2), inlier mask (K,)),
+    or None when too few anchors are left."""
+    h, w = image.shape
+    warped = cv2.warpPerspective(reference, H, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    seen = cv2.warpPerspective(np.full(reference.shape, 255, np.uint8), H, (w, h), flags=cv2.INTER_NEAREST)
+    seen = cv2.erode(seen, np.ones((window, window), np.uint8))
+    p0 = map_points(H, anchors)
+    ok = np.isfinite(p0).all(1) & (p0[:, 0] >= 0) & (p0[:, 0] <= w - 1) & (p0[:, 1] >= 0) & (p0[:, 1] <= h - 1)
+    ij = np.round(np.where(ok[:, None], p0, 0)).astype(int)
+    ok &= seen[ij[:, 1], ij[:, 0]] > 0
+    if ok.sum() < 4 or not seen.any():
+        return None
+    m_ref, s_ref = cv2.meanStdDev(warped, mask=seen)
+    m_img, s_img = cv2.meanStdDev(image, mask=seen)
+    if not (s_ref[0, 0] > 1e-3 and s_img[0, 0] > 1e-3):
+        return None
+    a = s_img[0, 0] / s_ref[0, 0]
+    matched = cv2.convertScaleAbs(warped, alpha=a, beta=m_img[0, 0] - a * m_ref[0, 0])
+    q0 = p0[ok].astype(np.float32).reshape(-1, 1, 2)
+    q1, st, _ = cv2.calcOpticalFlowPyrLK(matched, image, q0, q0.copy(), winSize=(window, window), maxLevel=1,
+                                         flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+                                         criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+    q1 = q1.reshape(-1, 2).astype(np.float64)
+    good = (st.ravel() == 1) & np.isfinite(q1).all(1) & (np.linalg.norm(q1 - p0[ok], axis=1) < 4 * threshold)
+    idx = np.flatnonzero(ok)[good]
+    if len(idx) < 4:
+        return None
+    H2, inl = cv2.findHomography(anchors[idx], q1[good], cv2.RANSAC, threshold)
+    if H2 is None:
+        return None
+    inl = inl.ravel().astype(bool)
+    if inl.sum() < 4:
+        return None
+    H2 = cv2.findHomography(anchors[idx][inl], q1[good][inl], 0)[0]
+    if H2 is None:
+        return None
+    pixels = np.full((len(anchors), 2), np.nan)
+    pixels[idx] = q1[good]
+    mask = np.zeros(len(anchors), bool)
+    mask[idx[inl]] = True
+    return H2 / H2[2, 2], pixels, mask
