@@ -35,7 +35,7 @@ KEYPOINT_DETECTORS = ("orb", "akaze")
 class KeypointTracker(PlanarTarget):
     """A planar target matched in every image to a reference image of it.
 
-    KeypointTracker(reference=None, points=None, region=None, detector="orb", n_features=1500,
+    KeypointTracker(reference=None, points=None, region=None, detector="orb", n_features=500,
                     ratio=0.8, ransac_threshold=3.0, min_inliers=12, image_size=None)
       reference         uint8 (h, w) image of the target (a scan of the printed picture, the goal image...);
                         None: set it later with set_reference (the image sensor uses the goal image)
@@ -53,7 +53,7 @@ class KeypointTracker(PlanarTarget):
     refused (ValueError naming reference).
     """
 
-    def __init__(self, reference=None, points=None, region=None, detector: str = "orb", n_features: int = 1500,
+    def __init__(self, reference=None, points=None, region=None, detector: str = "orb", n_features: int = 500,
                  ratio: float = 0.8, ransac_threshold: float = 3.0, min_inliers: int = 12, image_size=None):
         cv2 = opencv()
         if detector not in KEYPOINT_DETECTORS:
