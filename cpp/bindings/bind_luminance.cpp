@@ -29,7 +29,12 @@ struct ImageArg {
 
 ImageArg image_arg(py::handle obj, const char* name) {
   ImageArg a;
-  if (py::isinstance<py::array>(obj) && py::reinterpret_borrow<py::array>(obj).dtype().is(py::dtype::of<std::uint8_t>())) {
+  bool u8 = false;
+  if (py::isinstance<py::array>(obj)) {
+    const py::dtype d = py::reinterpret_borrow<py::array>(obj).dtype();
+    u8 = d.kind() == 'u' && d.itemsize() == 1;
+  }
+  if (u8) {
     a.u8 = U8Array::ensure(obj);
     a.is_u8 = true;
     if (a.u8.ndim() != 2)

@@ -107,21 +107,22 @@ LuminanceServo::LuminanceServo(const CameraModel& camera, int width, int height,
   if (camera.distortion() != Distortion::none)
     lum_fail("LuminanceServo: camera must be a pinhole without distortion (undistort the images first)");
   if (!(o.smoothing >= 0.0 && o.smoothing <= 10.0))
-    lum_fail("LuminanceServo: options.smoothing must be within [0, 10] pixels, got " + lum_number(o.smoothing));
+    lum_fail("LuminanceServo: smoothing must be within [0, 10] pixels, got " + lum_number(o.smoothing));
   radius_ = static_cast<int>(std::ceil(3.0 * o.smoothing));
   if (o.border < 3 + radius_ || o.border > 100000)
-    lum_fail("LuminanceServo: options.border must be >= 3 + the smoothing radius (" + std::to_string(3 + radius_) +
+    lum_fail("LuminanceServo: border must be >= 3 + the smoothing radius (" + std::to_string(3 + radius_) +
              "), got " + std::to_string(o.border));
   if (width < 2 * o.border + 1 || height < 2 * o.border + 1 || width > 100000 || height > 100000)
-    lum_fail("LuminanceServo: width and height must leave a grid inside the border (> 2 border) and be <= 100000, got " +
+    lum_fail("LuminanceServo: width and height must leave a grid inside the border (> 2 border) and be <= 100000, "
+             "got " +
              std::to_string(width) + " x " + std::to_string(height));
   if (!(o.gain > 0.0 && o.gain <= 1e6))
-    lum_fail("LuminanceServo: options.gain must be in (0, 1e6], got " + lum_number(o.gain));
-  if (!(o.mu >= 0.0 && o.mu <= 1e6)) lum_fail("LuminanceServo: options.mu must be in [0, 1e6], got " + lum_number(o.mu));
+    lum_fail("LuminanceServo: gain must be in (0, 1e6], got " + lum_number(o.gain));
+  if (!(o.mu >= 0.0 && o.mu <= 1e6)) lum_fail("LuminanceServo: mu must be in [0, 1e6], got " + lum_number(o.mu));
   if (!(o.min_conditioning >= 1e-15 && o.min_conditioning < 1.0))
-    lum_fail("LuminanceServo: options.min_conditioning must be in [1e-15, 1), got " + lum_number(o.min_conditioning));
-  if (static_cast<unsigned>(o.jacobian) > 2u) lum_fail("LuminanceServo: options.jacobian is not a known value");
-  if (static_cast<unsigned>(o.law) > 1u) lum_fail("LuminanceServo: options.law is not a known value");
+    lum_fail("LuminanceServo: min_conditioning must be in [1e-15, 1), got " + lum_number(o.min_conditioning));
+  if (static_cast<unsigned>(o.jacobian) > 2u) lum_fail("LuminanceServo: jacobian is not a known value");
+  if (static_cast<unsigned>(o.law) > 1u) lum_fail("LuminanceServo: law is not a known value");
   gw_ = width - 2 * o.border;
   gh_ = height - 2 * o.border;
   const double px = camera.px(), py = camera.py(), u0 = camera.u0(), v0 = camera.v0();
@@ -145,7 +146,7 @@ LuminanceServo::LuminanceServo(const CameraModel& camera, int width, int height,
     for (const double y : {y_.front(), y_.back()}) {
       const double iz = o.plane_a * x + o.plane_b * y + o.plane_c;
       if (!(iz >= 1.0 / max_depth && iz <= 1.0 / min_depth))
-        lum_fail("LuminanceServo: options.plane_a, plane_b, plane_c: 1/Z = A x + B y + C must be within [1/max_depth, "
+        lum_fail("LuminanceServo: plane: 1/Z = A x + B y + C must be within [1/max_depth, "
                  "1/min_depth] over the grid (got " + lum_number(iz) + " at a corner)");
     }
   const std::vector<double> k = gaussian_kernel(o.smoothing, radius_);
