@@ -169,6 +169,10 @@ finite, within +-1e6). camera: a pinhole CameraModel without distortion. See doc
       .def_property_readonly("width", &LuminanceServo::width, "Image width, pixels (columns).")
       .def_property_readonly("height", &LuminanceServo::height, "Image height, pixels (rows).")
       .def_property_readonly("pixels", &LuminanceServo::pixels, "N, the grid's pixels.")
+      .def_property(
+          "mu", [](const LuminanceServo& s) { return s.options().mu; },
+          [](LuminanceServo& s, py::handle mu) { s.set_mu(real(mu, "mu")); },
+          "Levenberg-Marquardt mu (settable: e.g. 0, Gauss-Newton, once near the goal).")
       .def_property_readonly("has_desired", &LuminanceServo::has_desired, "Whether set_desired() was called.")
       .def_property_readonly(
           "border", [](const LuminanceServo& s) { return s.options().border; }, "Pixels left out on each side.")

@@ -1332,6 +1332,11 @@ class LuminanceServo:
     def pixels(self) -> int:
         """N, the grid's pixels."""
     @property
+    def mu(self) -> float:
+        """Levenberg-Marquardt mu (settable: e.g. 0, Gauss-Newton, once near the goal)."""
+    @mu.setter
+    def mu(self, value: float) -> None: ...
+    @property
     def has_desired(self) -> bool:
         """Whether set_desired() was called."""
     @property

@@ -135,21 +135,25 @@ def closed_loop(servo, T, steps, dt=0.5, texture=waves, size=(W, H_)):
     return T, r
 
 
-def pose_error(T: np.ndarray) -> float:
-    return float(np.linalg.norm(ibvs.se3_log(T) if hasattr(ibvs, "se3_log") else (T - np.eye(4))))
-
-
 @pytest.mark.parametrize("jacobian", ["desired", "current", "mean"])
 def test_closed_loop_reaches_the_goal(jacobian):
-    """From 1-2 cm and 1-3 degrees off (the plane 0.5 m away, 160 x 120 images) to the goal pose: the
-    pose error at the end is below 1e-6 (translation m, rotation rad) for each J."""
+    """From 1-2 cm and 1-3 degrees off (the plane 0.5 m away, 160 x 120 images) to the goal pose, as ViSP's
+    example runs it: Levenberg-Marquardt (mu 0.01) first, then Gauss-Newton (mu = 0). The pose error at the
+    end is below 1e-8 (m, rad) for each J. Levenberg-Marquardt alone crawls in the nearly degenerate
+    direction (x translation against y rotation: the pose error still ~1 mm after 60 steps, 0.04 after 200)."""
     servo = ibvs.LuminanceServo(camera(), W, H_, jacobian=jacobian, plane=(0, 0, 1 / DEPTH))
     servo.set_desired(render(pose(), K, (W, H_), DEPTH, waves))
     T0 = pose((0.012, -0.01, 0.02), np.deg2rad([1.0, -1.5, 3.0]))
-    T, r = closed_loop(servo, T0, 60)
+    T, r = closed_loop(servo, T0, 20)
+    assert r.ok and 1e-3 < np.abs(T[:3, 3]).max() < 0.5 * np.abs(T0[:3, 3]).max()
+    servo.mu = 0.0
+    assert servo.mu == 0.0
+    T, r = closed_loop(servo, T, 30)
     assert r.ok
-    assert np.abs(T[:3, 3]).max() < 1e-6 and np.abs(T[:3, :3] - np.eye(3)).max() < 1e-6, T
+    assert np.abs(T[:3, 3]).max() < 1e-8 and np.abs(T[:3, :3] - np.eye(3)).max() < 1e-8, T
     assert r.error_rms < 1e-3
+    with pytest.raises(ValueError, match="mu must be in"):
+        servo.mu = -1.0
 
 
 def test_textureless_and_saturated_images_give_a_status_and_no_twist():
@@ -163,7 +167,7 @@ def test_textureless_and_saturated_images_give_a_status_and_no_twist():
     stripes = np.tile(np.sin(np.arange(W) / 5.0) * 50 + 100, (H_, 1))  # gradient along u only: rank 3 at most
     assert servo.update(stripes).status == "textureless"
     sat = np.full((H_, W), 255, np.uint8)
-    sat[50:60, 70:75] = (goal[50:60, 70:75]).astype(np.uint8)  # a few textured pixels in a blown-out image
+    sat[:, 70:90] = (stripes[:, 70:90]).astype(np.uint8)  # blown out but for a band of vertical stripes
     r = servo.update(sat)
     assert r.status == "saturated" and np.array_equal(r.twist, np.zeros(6))
     assert servo.update(np.zeros((H_, W), np.uint8)).status == "saturated"

@@ -318,6 +318,19 @@ void LuminanceServo::set_desired_impl(const P* data, std::ptrdiff_t stride) {
   has_desired_ = true;
 }
 
+void LuminanceServo::set_mu(double mu) {
+  if (!(mu >= 0.0 && mu <= 1e6)) lum_fail("LuminanceServo.set_mu: mu must be in [0, 1e6], got " + lum_number(mu));
+  if (has_desired_) {
+    const double m = options_.law == LuminanceLaw::levenberg_marquardt ? mu : 0.0;
+    Matrix66 factor;
+    if (!factor_law(desired_scale_.asDiagonal() * desired_h_ * desired_scale_.asDiagonal(), m,
+                    options_.min_conditioning, factor))
+      lum_fail("LuminanceServo.set_mu: the goal's H is singular");  // set_desired accepted it: not reached
+    desired_factor_ = factor;
+  }
+  options_.mu = mu;
+}
+
 void LuminanceServo::set_desired(const Eigen::Ref<const ImageU8>& image) {
   validate(image, "image");
   set_desired_impl(image.data(), image.outerStride());

@@ -111,6 +111,11 @@ class LuminanceServo {
   void set_desired(const Eigen::Ref<const ImageU8>& image);
   void set_desired(const Eigen::Ref<const ImageF64>& image);
   bool has_desired() const noexcept { return has_desired_; }
+  /// Changes mu (in [0, 1e6]; throws otherwise), e.g. to 0 for Gauss-Newton once near the goal (ViSP's
+  /// photometric example switches from mu = 0.01 to Gauss-Newton after 90 iterations): the LM damping
+  /// slows the nearly degenerate directions (a translation across the axis against the rotation about
+  /// the other image axis) to a crawl. Refactors the desired image's law matrix (allocation-free).
+  void set_mu(double mu);
 
   /// Throws std::invalid_argument "ibvs: <name> ..." for what update() refuses as invalid_input.
   void validate(const Eigen::Ref<const ImageU8>& image, const char* name = "image") const;
