@@ -116,7 +116,7 @@ finite, within +-1e6). camera: a pinhole CameraModel without distortion. See doc
              o.min_conditioning = real(min_conditioning, "min_conditioning");
              return LuminanceServo(camera, int_in(width, "width", 1, 100000), int_in(height, "height", 1, 100000), o);
            }),
-           py::arg("camera"), py::arg("width"), py::arg("height"), py::kw_only(), py::arg("border") = 10,
+           py::arg("camera"), py::arg("width"), py::arg("height"), py::arg("border") = 10,
            py::arg("smoothing") = 0.0, py::arg("jacobian") = "desired", py::arg("law") = "levenberg_marquardt",
            py::arg("gain") = 1.0, py::arg("mu") = 0.01, py::arg("plane") = std::vector<double>{0.0, 0.0, 1.0},
            py::arg("min_conditioning") = 1e-9)
@@ -169,10 +169,11 @@ finite, within +-1e6). camera: a pinhole CameraModel without distortion. See doc
       .def_property_readonly("width", &LuminanceServo::width, "Image width, pixels (columns).")
       .def_property_readonly("height", &LuminanceServo::height, "Image height, pixels (rows).")
       .def_property_readonly("pixels", &LuminanceServo::pixels, "N, the grid's pixels.")
-      .def_property(
-          "mu", [](const LuminanceServo& s) { return s.options().mu; },
-          [](LuminanceServo& s, py::handle mu) { s.set_mu(real(mu, "mu")); },
-          "Levenberg-Marquardt mu (settable: e.g. 0, Gauss-Newton, once near the goal).")
+      .def(
+          "set_mu", [](LuminanceServo& s, py::handle mu) { s.set_mu(real(mu, "mu")); }, py::arg("mu"),
+          "Changes the Levenberg-Marquardt mu (in [0, 1e6]), e.g. to 0 (Gauss-Newton) once near the goal.")
+      .def_property_readonly(
+          "mu", [](const LuminanceServo& s) { return s.options().mu; }, "The Levenberg-Marquardt mu.")
       .def_property_readonly("has_desired", &LuminanceServo::has_desired, "Whether set_desired() was called.")
       .def_property_readonly(
           "border", [](const LuminanceServo& s) { return s.options().border; }, "Pixels left out on each side.")

@@ -1304,7 +1304,6 @@ class LuminanceServo:
         camera: CameraModel,
         width: int,
         height: int,
-        *,
         border: int = 10,
         smoothing: float = 0.0,
         jacobian: str = "desired",
@@ -1331,11 +1330,11 @@ class LuminanceServo:
     @property
     def pixels(self) -> int:
         """N, the grid's pixels."""
+    def set_mu(self, mu: float) -> None:
+        """Changes the Levenberg-Marquardt mu (in [0, 1e6]), e.g. to 0 (Gauss-Newton) once near the goal."""
     @property
     def mu(self) -> float:
-        """Levenberg-Marquardt mu (settable: e.g. 0, Gauss-Newton, once near the goal)."""
-    @mu.setter
-    def mu(self, value: float) -> None: ...
+        """The Levenberg-Marquardt mu."""
     @property
     def has_desired(self) -> bool:
         """Whether set_desired() was called."""

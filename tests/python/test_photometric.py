@@ -146,14 +146,14 @@ def test_closed_loop_reaches_the_goal(jacobian):
     T0 = pose((0.012, -0.01, 0.02), np.deg2rad([1.0, -1.5, 3.0]))
     T, r = closed_loop(servo, T0, 20)
     assert r.ok and 1e-3 < np.abs(T[:3, 3]).max() < 0.5 * np.abs(T0[:3, 3]).max()
-    servo.mu = 0.0
+    servo.set_mu(0.0)
     assert servo.mu == 0.0
     T, r = closed_loop(servo, T, 30)
     assert r.ok
     assert np.abs(T[:3, 3]).max() < 1e-8 and np.abs(T[:3, :3] - np.eye(3)).max() < 1e-8, T
     assert r.error_rms < 1e-3
     with pytest.raises(ValueError, match="mu must be in"):
-        servo.mu = -1.0
+        servo.set_mu(-1.0)
 
 
 def test_textureless_and_saturated_images_give_a_status_and_no_twist():
