@@ -7,6 +7,7 @@
 //                                     camera model / pixel step / estimators (N=4)
 //   ibvs-bench --paced 1000 --duration 10
 //   ibvs-bench --sections components --layout stacked --n 4 --iterations 1000000
+//   ibvs-bench --sections photometric LuminanceServo (issue 36) beside its per-pixel floor: not in the default
 //   ibvs-bench --json                 one JSON line on stdout (the table goes to stderr)
 //
 // Every timed case: warm-up, then a batched loop (total time / iterations:
@@ -14,6 +15,7 @@
 // (median, p99, max; the timer's own median cost is subtracted). Inputs cycle
 // through 64 different frames; results go through an optimisation barrier.
 #include "kernels.hpp"
+#include "luminance_floor.hpp"
 #include "task_floors.hpp"
 
 #include "ibvs/ibvs.hpp"
@@ -157,7 +159,8 @@ std::vector<std::string> split(const std::string& s) {
                "  --spin US          paced: sleep until US microseconds before each deadline, then spin (default 0)\n"
                "  --realtime         paced: try SCHED_FIFO 80 and mlockall (needs CAP_SYS_NICE)\n"
                "  --episodes K       simulated 600-frame gantry episodes per episode case (default 50)\n"
-               "  --sections S[,S..] components, tasks, growth, paced, episode, robot, camera (default all seven)\n"
+               "  --sections S[,S..] components, tasks, growth, paced, episode, robot, camera (default all seven);\n"
+               "                     photometric (LuminanceServo at 160x120 and 320x240: only when asked)\n"
                "  --json             one JSON line on stdout; the human table goes to stderr\n");
   std::exit(code);
 }
@@ -234,7 +237,8 @@ Options parse(int argc, char** argv) {
     else o.sections = {"components", "tasks", "growth", "paced", "episode", "robot", "camera"};
   }
   for (const auto& s : o.sections)
-    if (s != "components" && s != "tasks" && s != "growth" && s != "paced" && s != "episode" && s != "robot" && s != "camera") {
+    if (s != "components" && s != "tasks" && s != "growth" && s != "paced" && s != "episode" && s != "robot" && s != "camera" &&
+        s != "photometric") {
       std::fprintf(stderr, "ibvs-bench: unknown section '%s'\n", s.c_str());
       usage(2);
     }
@@ -1261,6 +1265,125 @@ void print_row(std::FILE* f, const Result& r) {
                r.p99_us, r.max_us, r.mean_us, r.steps_per_s, r.allocs_per_call, robust);
 }
 
+// ------------------------------------------------------------ photometric --
+/// Photometric servoing (issue 36): LuminanceServo::update on 8-bit images of a smooth texture at
+/// 160x120 and 320x240 (border 10, constant depth, Levenberg-Marquardt), J at the desired image (the
+/// default) and at the current one, beside the per-pixel floor (luminance_floor.hpp) and its parts:
+/// the 7-tap gradients of the grid, the error e = I - I*, and the 6 x 6 solve. Fewer calls than the
+/// point sections (each is 0.05-1 ms): min(iterations, 2000).
+void bench_photometric(const Options& o_in, std::FILE* table) {
+  namespace ph = ibvs_bench::photometric;
+  Options o = o_in;
+  o.iterations = std::min(o.iterations, 2000L);
+  o.warmup = std::min(o.warmup, 200L);
+  for (const auto& size : {std::pair<int, int>{160, 120}, std::pair<int, int>{320, 240}}) {
+    const int w = size.first, h = size.second, border = 10;
+    const double f = 0.9 * w, z = 0.6, mu = 0.01, gain = 1.0;
+    const ibvs::CameraModel cam = ibvs::CameraModel::pinhole(f, f, 0.5 * (w - 1), 0.5 * (h - 1), w, h);
+    // A goal image and 8 current ones (the texture shifted by up to ~2 px and slightly rotated).
+    const auto texture = [&](double shift, double turn) {
+      ibvs::ImageU8 im(h, w);
+      for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c) {
+          const double X = (c - 0.5 * w) * std::cos(turn) - (r - 0.5 * h) * std::sin(turn) + shift;
+          const double Y = (c - 0.5 * w) * std::sin(turn) + (r - 0.5 * h) * std::cos(turn) - 0.5 * shift;
+          const double s = 0.32 * 160.0 / w;  // the same pattern in both sizes
+          im(r, c) = static_cast<std::uint8_t>(std::lround(
+              128.0 + 50.0 * std::sin(s * X * 0.9 + 0.3) + 40.0 * std::sin(s * (0.6 * Y - 0.3 * X)) +
+              25.0 * std::cos(s * 0.5 * (X + Y))));
+        }
+      return im;
+    };
+    const ibvs::ImageU8 goal = texture(0.0, 0.0);
+    std::vector<ibvs::ImageU8> frames;
+    for (int k = 0; k < 8; ++k) frames.push_back(texture(0.25 * (k + 1), 0.002 * (k - 4)));
+    const std::string layout = std::to_string(w) + "x" + std::to_string(h);
+    for (const auto jac : {ibvs::InteractionMatrix::desired, ibvs::InteractionMatrix::current}) {
+      ibvs::LuminanceOptions lo;
+      lo.border = border;
+      lo.jacobian = jac;
+      lo.mu = mu;
+      lo.gain = gain;
+      lo.plane_c = 1.0 / z;
+      ibvs::LuminanceServo servo(cam, w, h, lo);
+      servo.set_desired(goal);
+      const ph::Floor floor(w, h, border, f, f, 0.5 * (w - 1), 0.5 * (h - 1), z, mu, gain, goal.data());
+      const bool desired = jac == ibvs::InteractionMatrix::desired;
+      // The floor must give the servo's twist (float sums: relative 1e-4), or it is no floor.
+      ibvs::LuminanceOutput out;
+      for (const auto& im : frames) {
+        servo.update(im, out);
+        const ph::Vector6 v = desired ? floor.step_desired(im.data()) : floor.step_current(im.data());
+        if (out.status != ibvs::LuminanceStatus::ok || !((v - out.twist).norm() <= 1e-4 * v.norm())) {
+          std::fprintf(stderr, "ibvs-bench: the photometric floor disagrees with LuminanceServo::update (%s, J %s): %g\n",
+                       layout.c_str(), desired ? "desired" : "current", (v - out.twist).norm() / v.norm());
+          std::exit(1);
+        }
+      }
+      const int n = servo.pixels();
+      Result& r = add("photometric", desired ? "LuminanceServo::update J desired (LM)"
+                                             : "LuminanceServo::update J current (LM)",
+                      layout, n, n, "LM", mu, -1);
+      time_case(r, o, [&](long i) {
+        servo.update(frames[static_cast<std::size_t>(i & 7)], out);
+        keep(out.twist);
+      });
+      Result& rf = add("photometric", desired ? "floor: per-pixel L^T e, J desired" : "floor: per-pixel H, L^T e, J current",
+                       layout, n, n, "LM", mu, -1);
+      time_case(rf, o, [&](long i) {
+        const auto& im = frames[static_cast<std::size_t>(i & 7)];
+        keep(desired ? floor.step_desired(im.data()) : floor.step_current(im.data()));
+      });
+    }
+    // The floor's parts: the gradients of the grid, the error, the 6 x 6 LM solve.
+    const ph::Floor floor(w, h, border, f, f, 0.5 * (w - 1), 0.5 * (h - 1), z, mu, gain, goal.data());
+    const int gw = w - 2 * border, gh = h - 2 * border, n = gw * gh;
+    std::vector<float> gx(static_cast<std::size_t>(n)), gy(gx), e(gx);
+    Result& rg = add("photometric", "part: 7-tap gradients of the grid", layout, n, n, "-", 0.0, -1);
+    time_case(rg, o, [&](long i) {
+      const std::uint8_t* img = frames[static_cast<std::size_t>(i & 7)].data();
+      for (int r = 0; r < gh; ++r)
+        for (int c = 0; c < gw; ++c) {
+          const std::uint8_t* p = img + (r + border) * w + c + border;
+          gx[static_cast<std::size_t>(r * gw + c)] = float(f) * ph::Floor::dx7(p, 1);
+          gy[static_cast<std::size_t>(r * gw + c)] = float(f) * ph::Floor::dx7(p, w);
+        }
+      keep(gx[0]);
+      keep(gy[static_cast<std::size_t>(n - 1)]);
+    });
+    Result& re = add("photometric", "part: error e = I - I*", layout, n, n, "-", 0.0, -1);
+    time_case(re, o, [&](long i) {
+      const std::uint8_t* img = frames[static_cast<std::size_t>(i & 7)].data();
+      for (int r = 0; r < gh; ++r)
+        for (int c = 0; c < gw; ++c)
+          e[static_cast<std::size_t>(r * gw + c)] =
+              float(img[(r + border) * w + c + border]) - floor.ref[static_cast<std::size_t>(r * gw + c)];
+      keep(e[0]);
+    });
+    ph::Matrix6 H = ph::Matrix6::Identity() * 3.0;
+    H(0, 1) = H(1, 0) = 0.5;
+    const ph::Vector6 g = ph::Vector6::LinSpaced(1.0, 2.0);
+    Result& rs = add("photometric", "part: 6x6 LM solve (LLT of H + mu diag H)", layout, 6, 6, "LLT", mu, -1);
+    time_case(rs, o, [&](long i) {
+      ph::Matrix6 A = H;
+      A(0, 0) += 1e-9 * double(i & 7);
+      A.diagonal() *= 1.0 + mu;
+      keep(A.llt().solve(g));
+    });
+    for (std::size_t k = g_results.size() - 7; k < g_results.size(); ++k) print_row(table, g_results[k]);
+    const auto median = [&](const char* name) {
+      for (const Result& r : g_results)
+        if (r.section == "photometric" && r.layout == layout && r.name == name) return r.median_us;
+      return 0.0;
+    };
+    std::fprintf(table, "  LuminanceServo::update / floor (medians), %s: J desired %.2fx, J current %.2fx\n",
+                 layout.c_str(),
+                 median("LuminanceServo::update J desired (LM)") / median("floor: per-pixel L^T e, J desired"),
+                 median("LuminanceServo::update J current (LM)") / median("floor: per-pixel H, L^T e, J current"));
+    std::fflush(table);
+  }
+}
+
 void print_header(std::FILE* f, const char* title) {
   std::fprintf(f, "\n%s\n  %-45s %-20s %9s %9s %9s %9s %12s %7s %7s\n", title, "case", "layout", "median", "p99",
                "max", "mean", "steps/s", "allocs", "robust");
@@ -1419,6 +1542,12 @@ int main(int argc, char** argv) {
     bench_camera(o);
     for (std::size_t i = first; i < g_results.size(); ++i) print_row(table, g_results[i]);
     std::fflush(table);
+  }
+
+  if (has(o.sections, "photometric")) {
+    print_header(table, "Photometric servoing (issue 36): LuminanceServo::update on 8-bit images, border 10, beside a "
+                        "per-pixel floor (N = the grid's pixels)");
+    bench_photometric(o, table);
   }
 
   if (o.json) {

@@ -17,6 +17,7 @@ void bind_pose(py::module_& m);         // bind_pose.cpp
 void bind_moments(py::module_& m);      // bind_moments.cpp
 void bind_sources(py::module_& m);      // bind_sources.cpp
 void bind_shape_sources(py::module_& m);  // bind_sources.cpp
+void bind_luminance(py::module_& m);     // bind_luminance.cpp
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ibvs native core (C++/Eigen). Use the ibvs package, not this module.";
@@ -33,4 +34,5 @@ PYBIND11_MODULE(_core, m) {
   bind_pose(m);
   bind_sources(m);  // after bind_sim (FeatureSource) and bind_pose
   bind_shape_sources(m);  // after bind_sources
+  bind_luminance(m);  // after bind_camera (CameraModel)
 }

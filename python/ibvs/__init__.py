@@ -58,6 +58,8 @@ from ._core import (
 from ._core import FunctionFeature, PbvsFeature, Point25DFeature, theta_u, theta_u_interaction
 from .calibration import calibrate_hand_eye  # numpy only: OpenCV is imported when it runs
 from ._core import EllipseFeature, SegmentFeature  # feature blocks of a Task: the segment and the ellipse
+# photometric (direct) visual servoing and photometric moments (docs/photometric.md)
+from ._core import LuminanceResult, LuminanceServo, photometric_moments
 
 __all__ = [
     "AdaptiveGain",
@@ -99,6 +101,7 @@ __all__ = [
 ]
 __all__ += ["FunctionFeature", "PbvsFeature", "Point25DFeature", "theta_u", "theta_u_interaction"]
 __all__ += ["EllipseFeature", "SegmentFeature"]
+__all__ += ["LuminanceResult", "LuminanceServo", "photometric_moments"]
 
 
 def _reduce_layout(layout: Layout):

@@ -1268,3 +1268,89 @@ class FunctionFeature(Feature):
     @property
     def name(self) -> str:
         """The block's name in describe() and repr (default "function")."""
+
+# Photometric visual servoing (cpp/include/ibvs/features/luminance.hpp; docs/photometric.md)
+
+class LuminanceResult:
+    """Result of one LuminanceServo.update()."""
+
+    @property
+    def twist(self) -> _FloatArray:
+        """Camera twist (vx, vy, vz, wx, wy, wz), (6,); zeros unless status is 'ok'."""
+    @property
+    def status(self) -> str:
+        """'ok', 'textureless' or 'saturated' (H singular: zero twist), 'invalid_input'."""
+    @property
+    def ok(self) -> bool:
+        """status == 'ok'."""
+    @property
+    def error_rms(self) -> float:
+        """sqrt(|I - I*|^2 / N) over the grid, intensity units."""
+    @property
+    def pixels(self) -> int:
+        """N, the grid's pixels."""
+
+class LuminanceServo:
+    """Photometric visual servoing (Collewet & Marchand, IEEE T-RO 2011): the feature is the image.
+
+    L_I = -(I_x L_x + I_y L_y) per pixel of the grid (the image but a border), the gradient from ViSP's
+    7-tap filter; law v = -gain (H + mu diag H)^-1 L_I^T (I - I*), H = L_I^T L_I ("levenberg_marquardt")
+    or "gauss_newton", L_I at the desired image (once), the current one or their mean. Images: 2-D
+    arrays, uint8 (no copy) or real (float64). See docs/photometric.md.
+    """
+
+    def __init__(
+        self,
+        camera: CameraModel,
+        width: int,
+        height: int,
+        border: int = 10,
+        smoothing: float = 0.0,
+        jacobian: str = "desired",
+        law: str = "levenberg_marquardt",
+        gain: float = 1.0,
+        mu: float = 0.01,
+        plane: _ArrayLike = [0.0, 0.0, 1.0],
+        min_conditioning: float = 1e-9,
+    ) -> None: ...
+    def set_desired(self, image: _ArrayLike) -> None:
+        """The goal image (ValueError for a wrong size, a non-finite pixel or too little texture)."""
+    def update(self, image: _ArrayLike) -> LuminanceResult:
+        """One control step on the current image: a LuminanceResult (ValueError for a bad image)."""
+    def interaction(self, image: _ArrayLike) -> _FloatArray:
+        """L_I over the grid (N, 6) of an image, grid rows in order (double precision)."""
+    def intensities(self, image: _ArrayLike) -> _FloatArray:
+        """The feature s (N,) of an image: its (smoothed) intensities over the grid."""
+    @property
+    def width(self) -> int:
+        """Image width, pixels (columns)."""
+    @property
+    def height(self) -> int:
+        """Image height, pixels (rows)."""
+    @property
+    def pixels(self) -> int:
+        """N, the grid's pixels."""
+    def set_mu(self, mu: float) -> None:
+        """Changes the Levenberg-Marquardt mu (in [0, 1e6]), e.g. to 0 (Gauss-Newton) once near the goal."""
+    @property
+    def mu(self) -> float:
+        """The Levenberg-Marquardt mu."""
+    @property
+    def has_desired(self) -> bool:
+        """Whether set_desired() was called."""
+    @property
+    def border(self) -> int:
+        """Pixels left out on each side."""
+    @property
+    def jacobian(self) -> str:
+        """Where L_I is evaluated: "desired", "current" or "mean"."""
+    @property
+    def law(self) -> str:
+        """"levenberg_marquardt" or "gauss_newton"."""
+
+def photometric_moments(camera: CameraModel, image: _ArrayLike) -> _FloatArray:
+    """Moments m00..m04 (15,) of an intensity image in normalised coordinates (Bakthavatchalam et al. 2018).
+
+    m_pq = sum of x^p y^q I(u, v) / (p_x p_y) over the pixels. For a planar Lambertian object seen whole on
+    a zero-intensity background, MomentsFeature(source="region") gives their interaction matrix.
+    """

@@ -23,6 +23,9 @@ with its share of the 16.7 ms frame budget at 60 Hz.
 ``--loop`` times the servo loop's own overhead per frame (ibvs.loop.ServoLoop; the source excluded:
 the dot tracker, the servo, the joint mapping, the robot driver's call and the JSON-lines log) on
 --frames pre-rendered 640x480 frames of dots: median, p99 and max in ms.
+``--photometric`` times ``ibvs.LuminanceServo.update`` from Python on the 8-bit images of ibvs-bench's
+photometric section (the same texture, 160x120 and 320x240, border 10, J at the desired image and at the
+current one), to set beside ``ibvs-bench --sections photometric`` (the binding's share of a call).
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ import numpy as np
 
 import ibvs
 
-__all__ = ["main", "make_frames", "make_task_frames", "numpy_step"]
+__all__ = ["main", "make_frames", "make_task_frames", "numpy_step", "run_photometric"]
 
 LAYOUTS = ("cartesian", "polar", "stacked")
 FRAMES = 64
@@ -606,6 +609,45 @@ def format_vision(res: dict[str, Any]) -> str:
     return "\n".join(lines + why)
 
 
+def _texture(w: int, h: int, shift: float, turn: float) -> np.ndarray:
+    """ibvs-bench's photometric frames (bench/ibvs_bench.cpp, bench_photometric), the same formula."""
+    c, r = np.meshgrid(np.arange(w) - 0.5 * w, np.arange(h) - 0.5 * h)
+    X = c * math.cos(turn) - r * math.sin(turn) + shift
+    Y = c * math.sin(turn) + r * math.cos(turn) - 0.5 * shift
+    s = 0.32 * 160.0 / w
+    im = 128.0 + 50.0 * np.sin(s * X * 0.9 + 0.3) + 40.0 * np.sin(s * (0.6 * Y - 0.3 * X)) + 25.0 * np.cos(
+        s * 0.5 * (X + Y))
+    return np.floor(im + 0.5).astype(np.uint8)  # lround: the values are positive
+
+
+def run_photometric(iterations: int = 2000) -> dict[str, Any]:
+    """LuminanceServo.update through the bindings, as ibvs-bench --sections photometric times it in C++."""
+    overhead = _timer_overhead_ns()
+    cases = []
+    for w, h in ((160, 120), (320, 240)):
+        f = 0.9 * w
+        cam = ibvs.CameraModel(px=f, py=f, u0=0.5 * (w - 1), v0=0.5 * (h - 1))
+        frames = [_texture(w, h, 0.25 * (k + 1), 0.002 * (k - 4)) for k in range(8)]
+        for jac in ("desired", "current"):
+            servo = ibvs.LuminanceServo(cam, w, h, jacobian=jac, plane=(0.0, 0.0, 1 / 0.6))
+            servo.set_desired(_texture(w, h, 0.0, 0.0))
+            upd = servo.update
+            r = _time(lambda k, upd=upd: upd(frames[k & 7]), iterations, max(50, iterations // 10), overhead)
+            cases.append({"name": f"ibvs LuminanceServo.update J {jac} (LM)", "layout": f"{w}x{h}",
+                          "n": servo.pixels, **r})
+    return {"benchmark": "ibvs.bench photometric", "version": ibvs.__version__, "iterations": iterations,
+            "timer_overhead_ns": overhead, "cases": cases}
+
+
+def format_photometric(res: dict[str, Any]) -> str:
+    lines = [f"photometric, {res['iterations']} calls per case, microseconds per call",
+             f"  {'case':<44} {'image':>8} {'pixels':>7} {'median':>9} {'p99':>9} {'max':>9}"]
+    for c in res["cases"]:
+        lines.append(f"  {c['name']:<44} {c['layout']:>8} {c['n']:>7} {c['median_us']:9.1f} {c['p99_us']:9.1f} "
+                     f"{c['max_us']:9.1f}")
+    return "\n".join(lines)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .cli.args import Parser, number
 
@@ -622,6 +664,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "needs the vision extra)")
     p.add_argument("--loop", action="store_true",
                    help="time the servo loop's own overhead per frame (ibvs.loop; needs the vision extra)")
+    p.add_argument("--photometric", action="store_true",
+                   help="time LuminanceServo.update (160x120 and 320x240) instead; --iterations caps at 2000")
     p.add_argument("--frames", type=number(2, 100000, integer=True), default=300,
                    help="frames per vision case (2 to 1e5; default 300)")
     return p
@@ -641,6 +685,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.vision:
         res = run_vision(args.frames)
         print(json.dumps(res, allow_nan=False) if args.json else format_vision(res))
+        return 0
+    if args.photometric:
+        res = run_photometric(min(args.iterations, 2000))
+        print(json.dumps(res) if args.json else format_photometric(res))
         return 0
     res = run(args.iterations, args.n, args.damping, args.gain)
     print(json.dumps(res) if args.json else format_table(res))

@@ -767,7 +767,45 @@ void shape_sources_episode_allocates_nothing() {
   }
 }
 
+// LuminanceServo::update (features/luminance.hpp), every J and law, with and without smoothing, on
+// 8-bit and double images, accepted, textureless and refused: nothing allocated after set_desired.
+void luminance_allocates_nothing() {
+  const int w = 64, h = 48;
+  const CameraModel cam = CameraModel::pinhole(60.0, 60.0, 31.5, 23.5, w, h);
+  ImageF64 goal(h, w), cur(h, w), flat = ImageF64::Constant(h, w, 90.0), bad(h, w);
+  for (int r = 0; r < h; ++r)
+    for (int c = 0; c < w; ++c) {
+      goal(r, c) = 120.0 + 50.0 * std::sin(0.3 * c + 0.1 * r) + 40.0 * std::cos(0.25 * r - 0.15 * c);
+      cur(r, c) = 120.0 + 50.0 * std::sin(0.3 * (c + 0.4) + 0.1 * r) + 40.0 * std::cos(0.25 * r - 0.15 * c);
+    }
+  bad = cur;
+  bad(7, 9) = std::numeric_limits<double>::quiet_NaN();
+  const ImageU8 cur8 = cur.cast<std::uint8_t>();
+  for (const auto jac : {InteractionMatrix::desired, InteractionMatrix::current, InteractionMatrix::mean})
+    for (const auto law : {LuminanceLaw::levenberg_marquardt, LuminanceLaw::gauss_newton})
+      for (const double sigma : {0.0, 1.0}) {
+        LuminanceOptions o;
+        o.jacobian = jac;
+        o.law = law;
+        o.smoothing = sigma;
+        LuminanceServo servo(cam, w, h, o);
+        servo.set_desired(goal);
+        LuminanceOutput out;
+        const long before = news.load();
+        const LuminanceStatus a = servo.update(cur, out);
+        const LuminanceStatus b = servo.update(cur8, out);
+        const LuminanceStatus c = servo.update(flat, out);
+        const LuminanceStatus d = servo.update(bad, out);
+        const long during = news.load() - before;
+        ibvs_test::report(during == 0, "no allocation in LuminanceServo::update", __FILE__, __LINE__,
+                          servo.describe() + ": " + std::to_string(during));
+        CHECK(a == LuminanceStatus::ok && b == LuminanceStatus::ok && d == LuminanceStatus::invalid_input);
+        CHECK(c == (jac == InteractionMatrix::current ? LuminanceStatus::textureless : LuminanceStatus::ok));
+      }
+}
+
 void run_tests() {
+  luminance_allocates_nothing();
   mounting_and_secondary_allocate_nothing();
   smooth_and_lost_allocate_nothing();
   counter_sees_allocations();

@@ -2,7 +2,7 @@
 // validate, update), PartitionedServo, damped_pinv / singular_values and se3_exp,
 // the simulator's feature sources (LineSource on a target, measure from any pose;
 // short episodes of a line task), the wide-angle camera path (fisheye / omnidir bearings,
-// PlanarPose::estimate_bearings):
+// PlanarPose::estimate_bearings), LuminanceServo and photometric_moments (images of any values):
 // arbitrary bytes become a layout,
 // options and inputs (every double bit pattern possible: NaN, inf, subnormals,
 // 1e300), and the contract is checked:
@@ -25,6 +25,7 @@
 #include "ibvs/task.hpp"
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/luminance.hpp"
 #include "ibvs/features/moments.hpp"
 #include "ibvs/features/segment.hpp"
 #include "ibvs/features/spherical.hpp"
@@ -861,9 +862,81 @@ void fuzz_sources(Bytes& b) {
 
 }  // namespace
 
+// LuminanceServo (features/luminance.hpp) and photometric_moments: any camera, size, options and
+// images (double images with any bit patterns; 8-bit ones): the constructor and set_desired throw
+// std::invalid_argument or accept; validate throws exactly when update returns invalid_input; every
+// other update gives a finite twist (zero unless ok) and moments are finite or refused.
+void fuzz_luminance(Bytes& b) {
+  const int w = b.small(1, 40), h = b.small(1, 40);
+  std::optional<LuminanceServo> servo;
+  try {
+    const double f = b.byte() < 220 ? 5.0 + b.byte() : b.real();
+    const CameraModel cam = CameraModel::pinhole(f, f, b.byte() < 220 ? 0.5 * w : b.real(),
+                                                 b.byte() < 220 ? 0.5 * h : b.real(), w, h);
+    LuminanceOptions o;
+    o.border = b.small(0, 8);
+    o.smoothing = b.byte() < 200 ? b.small(0, 3) * 0.4 : b.real();
+    o.jacobian = static_cast<InteractionMatrix>(b.small(0, 3));
+    o.law = static_cast<LuminanceLaw>(b.small(0, 2));
+    if (b.byte() > 200) o.gain = b.real();
+    if (b.byte() > 200) o.mu = b.real();
+    if (b.byte() > 200) o.min_conditioning = b.real();
+    if (b.byte() > 150) o.plane_a = b.coordinate(), o.plane_b = b.coordinate(), o.plane_c = b.depth();
+    servo.emplace(cam, w, h, o);
+    try {
+      (void)photometric_moments(cam, ImageF64::Zero(h, w));
+    } catch (const std::invalid_argument&) {
+    }
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  const auto image = [&](ImageF64& im) {
+    const int kind = b.small(0, 3);
+    for (int r = 0; r < h; ++r)
+      for (int c = 0; c < w; ++c)
+        im(r, c) = kind == 0 ? 100.0 + 60.0 * std::sin(0.7 * c + 0.3 * r) * std::cos(0.4 * r - 0.2 * c)
+                   : kind == 1 ? double(b.byte())
+                   : kind == 2 ? 77.0
+                               : (b.byte() < 230 ? double(b.byte()) : b.real());
+  };
+  ImageF64 goal(h, w), cur(h, w);
+  image(goal);
+  try {
+    servo->set_desired(goal);
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  LuminanceOutput out;
+  for (int k = 0; k < 3; ++k) {
+    image(cur);
+    bool refused = false;
+    try {
+      servo->validate(cur, "image");
+    } catch (const std::invalid_argument&) {
+      refused = true;
+    }
+    const LuminanceStatus s = servo->update(cur, out);
+    CHECK(refused == (s == LuminanceStatus::invalid_input));
+    CHECK(out.twist.allFinite());
+    if (s != LuminanceStatus::ok) CHECK(out.twist.isZero(0.0));
+    if (!refused) CHECK(std::isfinite(out.error_rms));
+    try {
+      const Moments m = photometric_moments(servo->camera(), cur);
+      for (double x : m) CHECK(std::isfinite(x));
+      CHECK(!refused);
+    } catch (const std::invalid_argument&) {
+      CHECK(refused);
+    }
+    const ImageU8 u8 = cur.array().max(0.0).min(255.0).unaryExpr([](double x) { return x == x ? x : 0.0; })
+                           .cast<std::uint8_t>();
+    const LuminanceStatus s8 = servo->update(u8, out);
+    CHECK(s8 != LuminanceStatus::invalid_input && out.twist.allFinite());
+  }
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   Bytes b{data, size};
-  switch (b.byte() % 8) {
+  switch (b.byte() % 9) {
     case 0: fuzz_servo(b); break;
     case 1: fuzz_partitioned(b); break;
     case 2: fuzz_task(b); break;
@@ -871,6 +944,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case 4: fuzz_smooth(b); break;
     case 5: fuzz_sources(b); break;
     case 6: fuzz_wide(b); break;
+    case 7: fuzz_luminance(b); break;
     default: fuzz_pinv_exp(b); break;
   }
   return 0;

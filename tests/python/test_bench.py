@@ -317,3 +317,32 @@ def test_loop_benchmark_runs_and_reports_its_parts(capsys) -> None:
     assert 0 < res["tracker_ms"]["median"] < res["overhead_ms"]["max"]
     assert bench.main(["--loop", "--frames", "5"]) == 0
     assert "of which the dot tracker" in capsys.readouterr().out
+PHOTOMETRIC_ROWS = {"LuminanceServo::update J desired (LM)", "floor: per-pixel L^T e, J desired",
+                    "LuminanceServo::update J current (LM)", "floor: per-pixel H, L^T e, J current",
+                    "part: 7-tap gradients of the grid", "part: error e = I - I*",
+                    "part: 6x6 LM solve (LLT of H + mu diag H)"}
+
+
+def test_cpp_bench_photometric_section(cpp_bench: str) -> None:
+    """Issue 36: LuminanceServo::update at 160x120 and 320x240 beside its per-pixel floor and the floor's parts,
+    the servo allocating nothing; ibvs-bench exits 1 when the floor's twist disagrees (relative 1e-4)."""
+    r = subprocess.run([cpp_bench, "--iterations", "20", "--warmup", "2", "--sections", "photometric", "--json"],
+                       check=True, capture_output=True, text=True, timeout=300)
+    cases = json.loads(r.stdout)["cases"]
+    assert {(c["name"], c["layout"]) for c in cases} == {(n, s) for n in PHOTOMETRIC_ROWS
+                                                         for s in ("160x120", "320x240")}
+    for c in cases:
+        assert c["section"] == "photometric" and c["allocs_per_call"] == 0, c
+        assert 0.0 <= c["median_us"] <= c["p99_us"] <= c["max_us"], c
+    assert {c["n"] for c in cases if c["name"].startswith("LuminanceServo")} == {140 * 100, 300 * 220}
+    assert "LuminanceServo::update / floor (medians), 320x240" in r.stderr and "disagrees" not in r.stderr
+
+
+def test_python_bench_photometric() -> None:
+    from ibvs import bench
+
+    res = bench.run_photometric(iterations=3)
+    assert [(c["name"], c["layout"]) for c in res["cases"]] == [
+        (f"ibvs LuminanceServo.update J {j} (LM)", s) for s in ("160x120", "320x240") for j in ("desired", "current")]
+    assert all(0.0 < c["median_us"] <= c["max_us"] for c in res["cases"])
+    assert "LuminanceServo.update J current" in bench.format_photometric(res)

@@ -11,6 +11,7 @@
 #include "ibvs/features/ellipse.hpp"
 #include "ibvs/features/function.hpp"
 #include "ibvs/features/line.hpp"
+#include "ibvs/features/luminance.hpp"
 #include "ibvs/features/moments.hpp"
 #include "ibvs/features/pose.hpp"
 #include "ibvs/features/segment.hpp"

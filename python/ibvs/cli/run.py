@@ -40,9 +40,10 @@ def add_parser(sub) -> None:
     one.add_argument("--plot", type=a.figure_file, metavar="FILE", help="save the episode's figure (PNG, PDF, SVG)")
     one.add_argument("--animate", type=a.animation_file, metavar="FILE",
                      help="write an animation: camera view and 3D scene (.gif, or .mp4 with imageio-ffmpeg)")
-    one.add_argument("--vision", choices=["dots", "tag"],
-                     help="close the loop through rendered images: white dots (tracked) or an AprilTag 36h11 "
-                          "(cv2.aruco); a normalised camera becomes 640x480 with f = 800 px "
+    one.add_argument("--vision", choices=["dots", "tag", "klt", "keypoints"],
+                     help="close the loop through rendered images: white dots (tracked), an AprilTag 36h11 "
+                          "(cv2.aruco), or a textured plate whose corners KLT or keypoints find (the schemes klt "
+                          "and keypoints use these); a normalised camera becomes 640x480 with f = 800 px "
                           "(needs the vision extra)")
     one.add_argument("--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
                      help="with --vision: the camera frames with detected (green) and desired (red) points, "
@@ -105,8 +106,9 @@ def command(args) -> int:
             except ImportError as e:
                 a.fail(prog, f"argument {option}: {e}")
     sensor = None
+    args.vision = args.vision or schemes_mod.VISION.get(args.scheme)  # klt, keypoints: their image sensor
     if args.video and not args.vision:
-        a.fail(prog, "argument --video: needs --vision dots or --vision tag")
+        a.fail(prog, "argument --video: needs --vision (dots, tag, klt, keypoints)")
     if args.vision:
         try:
             from .. import vision

@@ -172,9 +172,10 @@ def run(
         closer to the target than this times the goal depth of the target's centroid
         (default 5 %), or goes through a planar target; "target_backside" when it goes
         behind a planar target's plane (see RunStatus).
-    vision: None (the points are the camera model's projections plus `noise`), "dots" or "tag"
-        (ibvs.vision.ImageSensor.for_target(camera, target, vision): each frame is rendered,
-        the dots tracked or the tag detected, and their pixels undistorted for the servo; a
+    vision: None (the points are the camera model's projections plus `noise`), "dots", "tag", "klt" or
+        "keypoints" (ibvs.vision.ImageSensor.for_target(camera, target, vision): each frame is rendered,
+        the dots tracked, the tag detected or the textured plate's corners found by KLT or keypoints, and
+        their pixels undistorted for the servo; a
         point the tracker loses ends the episode as lost_feature, unless keep_lost), or any ibvs.sim.Sensor
         (an ImageSensor with your renderer options). Needs a pixel camera. With a sensor,
         `noise` is not added (the image has its own) but still tells the depth estimator the
@@ -209,7 +210,8 @@ def run(
 
         vision = _vision.ImageSensor.for_target(camera, target, vision)
     elif vision is not None and not isinstance(vision, Sensor):
-        raise TypeError(f"vision must be None, 'dots', 'tag' or an ibvs.sim.Sensor, got {type(vision).__name__}")
+        raise TypeError(f"vision must be None, 'dots', 'tag', 'klt', 'keypoints' or an ibvs.sim.Sensor, got "
+                        f"{type(vision).__name__}")
     recording = None
     if record is not None:  # rosbags and the directory are checked before the run
         from ..ros.recorder import Recording

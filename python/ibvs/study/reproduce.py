@@ -225,6 +225,8 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
     if angle_wrap not in ANGLE_WRAPS:
         raise ValueError(f"angle_wrap must be one of {ANGLE_WRAPS}, got {angle_wrap!r}")
     c = case_object if case_object is not None else make_case(world, case)
+    if vision is None:  # a scheme measured in rendered images (klt, keypoints) brings its image sensor
+        vision = schemes.sensor_for(scheme, c.camera, c.target)
     camera = c.camera if vision is None else vision.renderer.camera
     servo = schemes.make(scheme, GAIN[world] if gain is None else gain, len(c.target))
     if isinstance(servo, ibvs.Servo):

@@ -12,6 +12,10 @@ returning the target with them (ibvs.sim.Target.with_features), which ibvs.study
 ibvs.study.reproduce apply before each run (target_for). The schemes on a pose (pbvs,
 pbvs_object, 2.5d) measure it with the run's depth mode: "exact" (the true pose), "pose"
 (ibvs.PlanarPose's estimate) or "estimated"; "desired" gives them the goal's pose, i.e. no error.
+
+A scheme that measures its points in rendered images of a textured plate (klt, keypoints: classic IBVS on
+the plate's four corners as ibvs.vision.KltTracker or KeypointTracker finds them) names its image sensor
+in VISION; run_one and the sweeps then run it through ibvs.vision.ImageSensor.for_target (sensor_for).
 """
 
 from __future__ import annotations
@@ -92,6 +96,18 @@ def point25d(gain: float, n_points: int = 4):
     return ibvs.Servo(ibvs.Task().add(ibvs.Point25DFeature()), gain=gain, damping=0.0)
 
 
+def klt(gain: float, n_points: int = 4):
+    """Classic IBVS, eq. (3), on the target's points as a KLT tracker finds them in rendered images of the
+    textured plate (ibvs.vision.KltTracker; VISION)."""
+    return cartesian(gain, n_points)
+
+
+def keypoints(gain: float, n_points: int = 4):
+    """Classic IBVS, eq. (3), on the target's points as keypoints matched to the goal image and a RANSAC
+    homography find them in rendered images of the textured plate (ibvs.vision.KeypointTracker; VISION)."""
+    return cartesian(gain, n_points)
+
+
 def _planar_polygon(target, name: str):
     """Refuse a target the moments schemes cannot use, naming why."""
     P = np.asarray(target.points, dtype=float)
@@ -148,7 +164,12 @@ SCHEMES: dict[str, Callable[..., Any]] = {
     "pbvs": pbvs,
     "pbvs_object": pbvs_object,
     "2.5d": point25d,
+    "klt": klt,
+    "keypoints": keypoints,
 }
+
+#: Scheme name -> the ibvs.vision.SENSOR_KINDS kind its points are measured with (image episodes).
+VISION: dict[str, str] = {"klt": "klt", "keypoints": "keypoints"}
 
 #: Scheme name -> fn(target) -> the target carrying the scheme's feature sources (schemes whose
 #: task has blocks beyond points).
@@ -174,11 +195,26 @@ TITLES = {
     "pbvs": "PBVS, camera to desired camera",
     "pbvs_object": "PBVS, camera to object",
     "2.5d": "2.5-D (Malis et al.), reference point 0",
+    "klt": "IBVS on KLT-tracked plate corners (rendered texture)",
+    "keypoints": "IBVS on keypoint-homography plate corners (rendered texture)",
 }
 
 def points_only() -> tuple:
-    """The registered schemes on image points only (no target function): what a sweep runs by default."""
-    return tuple(s for s in SCHEMES if s not in TARGETS)
+    """The registered schemes on image points only (no target function, no image sensor): what a sweep
+    runs by default."""
+    return tuple(s for s in SCHEMES if s not in TARGETS and s not in VISION)
+
+
+def sensor_for(scheme, camera, target, **renderer_options):
+    """The image sensor a run of `scheme` needs (VISION; None for the others): an ibvs.vision.ImageSensor
+    of its kind for the target, its camera ibvs.vision.image_camera(camera) (a normalised camera gets a
+    640x480 pinhole): use sensor.renderer.camera as the run's camera."""
+    kind = VISION.get(scheme) if isinstance(scheme, str) else None
+    if kind is None:
+        return None
+    from .. import vision
+
+    return vision.ImageSensor.for_target(vision.image_camera(camera), target, kind, **renderer_options)
 
 
 #: The four schemes of the paper.

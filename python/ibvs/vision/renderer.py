@@ -9,7 +9,10 @@ camera's distortion: each sensor pixel reads the pinhole image at CameraModel.no
 centre. A fisheye or omnidirectional lens (distortion "equidistant" or "omnidir") has no pinhole
 image beyond 90 degrees: it is drawn through bearings instead (ibvs.vision.rays: each pixel's ray,
 CameraModel.to_bearing, met with the target's plane, then one remap of the texture), and the
-pixels outside its image circle (where to_bearing refuses) are black (0, without noise). Dots are
+pixels outside its image circle (where to_bearing refuses) are black (0, without noise). A textured
+plate (kind "texture": any image, or ibvs.vision.texture's procedural one) is the same pyramid built from
+the image resampled to the plate's texels. A lighting change (gain, offset) scales and shifts the scene's
+gray levels (plate and background) before the sensor noise and the 8-bit quantisation. Dots are
 drawn with anti-aliased edges (coverage of each texel), so that the intensity
 centroid of a rendered dot is the area centroid of the dot's image (see tests/python/test_vision.py:
 that, not the projection of the dot's centre, is what a centroid can be compared with; they differ
@@ -28,21 +31,24 @@ from .._core import sim as _sim
 from .images import camera_image_size, check_real, opencv
 from .rays import WIDE_MODELS, Rays
 from .tag import TAG_DICTIONARIES
+from .texture import load_texture
+from .texture import texture as procedural_texture
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["KINDS", "Renderer"]
 
 #: What the renderer draws: white dots on a dark plate, a square fiducial tag, or one white blob on a dark
 #: plate: the disc whose rim holds the target's points ("disc") or the polygon whose vertices they are
-#: ("polygon"), for image moments and ellipses (ibvs.vision.blob).
-KINDS = ("dots", "tag", "disc", "polygon")
+#: ("polygon"), for image moments and ellipses (ibvs.vision.blob), or a textured plate: an image spanning
+#: the rectangle of the target's points ("texture"), for natural features and photometric servoing.
+KINDS = ("dots", "tag", "disc", "polygon", "texture")
 
 
 class Renderer:
     """Grayscale images of a planar target as the camera sees it.
 
     Renderer(camera, target, kind="dots", dot_radius=None, tag_id=0, dictionary="apriltag_36h11",
-             blur=0.0, exposure=0.0, noise=0.0, seed=0)
+             blur=0.0, exposure=0.0, noise=0.0, seed=0, texture=None, gain=1.0, offset=0.0)
       camera       an ibvs.CameraModel with a pixel sensor (any distortion); images are its size
       target       an ibvs.sim.Target whose points lie in its z = 0 plane
       kind         "dots": a white dot (radius dot_radius, m; default a tenth of the smallest
@@ -53,12 +59,22 @@ class Renderer:
                    (+,+), (-,+) in the target frame, the order of Target.square), on a white plate;
                    "disc": one white disc on a dark plate, the disc whose rim holds the target's points
                    (its centre their mean, its radius their distance from it: points on a circle);
-                   "polygon": one white filled polygon whose vertices are the target's points, in order
+                   "polygon": one white filled polygon whose vertices are the target's points, in order;
+                   "texture": the image `texture` spanning the axis-aligned rectangle of the target's
+                   points (e.g. Target.square(side): its corners are the image's corners; image column
+                   along the target's x, row along its y, pixel (0, 0) at the (-, -) corner) on a dark
+                   plate; the image is resampled to the texture's 2048 texels along its longer side
+                   (square texels: the shorter side is stretched by at most half a texel to fit)
+      texture      kind "texture": a path to an image file (cv2.imread: PNG, JPEG, ...; colour becomes
+                   gray), a numpy array (2-D gray or (h, w, 3) BGR, gray levels in [0, 255]), or None:
+                   ibvs.vision.texture() (procedural, 512x512, seed 0)
       blur         defocus: std (px) of a Gaussian blur, 0 = sharp
       exposure     motion blur: exposure time (s) over which render(pose, twist) averages the
                    camera moving with `twist` (5 sub-frames), 0 = none
       noise        sensor noise: std of additive Gaussian noise in gray levels, then 8-bit quantisation
       seed         of the noise (a numpy default_rng); reseed() restarts it
+      gain, offset a lighting change: every gray level g of the scene becomes gain g + offset before
+                   the noise (set_lighting changes it between frames)
     A fisheye or omnidirectional camera (distortion "equidistant" or "omnidir": wide is True) is drawn
     through each pixel's bearing, over its whole field of view (beyond 90 degrees off the axis); mask
     is then its image circle (255 inside; the pixels outside are black), or None when every pixel sees.
@@ -82,6 +98,9 @@ class Renderer:
         exposure: float = 0.0,
         noise: float = 0.0,
         seed: int = 0,
+        texture=None,
+        gain: float = 1.0,
+        offset: float = 0.0,
     ):
         cv2 = opencv()
         self.size = camera_image_size(camera)
@@ -101,6 +120,9 @@ class Renderer:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise TypeError(f"seed must be a non-negative int, got {seed!r}")
         self.reseed(int(seed))
+        self.set_lighting(gain, offset)
+        if texture is not None and kind != "texture":
+            raise ValueError(f"texture: only kind 'texture' has one, got kind {kind!r}")
         xy = np.asarray(target.points)[:, :2]
         if kind == "dots":
             d = np.linalg.norm(xy[:, None] - xy[None], axis=-1)
@@ -126,6 +148,16 @@ class Renderer:
                 raise ValueError("target: a polygon needs 3 or more points enclosing a nonzero area")
             margin = 0.15 * max(float(np.ptp(xy, axis=0).max()), 1e-9)
             lo, hi = xy.min(0) - margin, xy.max(0) + margin
+            self.background = self.BACKGROUND
+        elif kind == "texture":
+            self.dot_radius = None
+            lo, hi = xy.min(0), xy.max(0)
+            if not np.all(hi - lo > 1e-9 * max(float(np.abs(xy).max()), 1.0)):
+                raise ValueError(
+                    "target: a textured plate is the rectangle of the target's points, which needs a nonzero "
+                    "width and height in its z = 0 plane"
+                )
+            self._image = procedural_texture() if texture is None else load_texture(texture, "texture")
             self.background = self.BACKGROUND
         else:
             self.dot_radius = None
@@ -169,6 +201,15 @@ class Renderer:
         t = np.linspace(0.0, 1.0, 16)
         self._edge_t = t
 
+    def set_lighting(self, gain: float = 1.0, offset: float = 0.0) -> None:
+        """A lighting change from the next frame on: every gray level g of the scene becomes gain g + offset
+        (before the sensor noise and the 8-bit quantisation, which saturates)."""
+        self.gain = check_real(gain, "gain", 0.0, 100.0)
+        self.offset = check_real(offset, "offset", -255.0, 255.0)
+
+    def _lit(self, level: float) -> float:
+        return self.gain * level + self.offset
+
     def reseed(self, seed: int) -> None:
         """Restart the noise generator: the images that follow depend on the seed only."""
         self._rng = np.random.default_rng(seed)
@@ -183,13 +224,14 @@ class Renderer:
         reads an unrelated table entry (the same one only when two frames draw the same offset, 1 in 300,000
         at 640x480). Drawing fresh normals every frame costs 1.5 ms at 640x480; the window costs a copy."""
         W, H = self.size
+        background = self._lit(self.background)
         if self.noise == 0:
-            return None, np.full((H, W), round(self.background), np.uint8)
-        if self._noise_table is None or self._noise_table[1] != (self.noise, self.background):
+            return None, np.full((H, W), int(np.clip(round(background), 0, 255)), np.uint8)
+        if self._noise_table is None or self._noise_table[1] != (self.noise, background):
             table = self._rng.standard_normal((2 * H, 2 * W), dtype=np.float32)
             table *= np.float32(self.noise)
-            quantised = cv2.add(table, np.full_like(table, self.background), dtype=cv2.CV_8U)
-            self._noise_table = (table, (self.noise, self.background), quantised)
+            quantised = cv2.add(table, np.full_like(table, background), dtype=cv2.CV_8U)
+            self._noise_table = (table, (self.noise, background), quantised)
         dy, dx = (int(i) for i in self._rng.integers(0, [H + 1, W + 1]))
         table, _, quantised = self._noise_table
         return table[dy : dy + H, dx : dx + W], quantised[dy : dy + H, dx : dx + W].copy()
@@ -223,6 +265,15 @@ class Renderer:
             cc, rr = np.meshgrid(np.arange(cols), np.arange(rows))
             cover = np.clip(0.5 + rad - np.hypot(cc - cx, rr - cy), 0.0, 1.0)
             tex += (self.DOT - self.PLATE) * cover.astype(np.float32)
+        elif self.kind == "texture":  # the image resampled onto the plate's texels, top-left at lo
+            tex = np.full((rows, cols), self.background, np.float32)
+            n_c = min(max(int(round(extent[0] / d0)), 1), cols)
+            n_r = min(max(int(round(extent[1] / d0)), 1), rows)
+            img = self._image
+            shrink = n_c < img.shape[1] or n_r < img.shape[0]
+            tex[:n_r, :n_c] = np.clip(
+                cv2.resize(img, (n_c, n_r), interpolation=cv2.INTER_AREA if shrink else cv2.INTER_CUBIC), 0, 255
+            )
         elif self.kind == "polygon":  # anti-aliased fill, vertices to 1/256 texel
             mask = np.zeros((rows, cols), np.uint8)
             v = np.round(((xy - lo) / d0 - 0.5) * 256).astype(np.int32)
@@ -440,8 +491,11 @@ class Renderer:
         """The sensor's frame: the background with the plate's region, blurred, noisy, quantised."""
         W, H = self.size
         noise, out = self._noise(cv2)
+        if region is not None and (self.gain != 1 or self.offset != 0):
+            box, pixels = region
+            region = (box, pixels * np.float32(self.gain) + np.float32(self.offset))
         if self.blur > 0:  # defocus spreads the plate over the background: the whole frame in float
-            img = np.full((H, W), self.background, np.float32)
+            img = np.full((H, W), self._lit(self.background), np.float32)
             if region is not None:
                 (sx0, sy0, sx1, sy1), pixels = region
                 img[sy0:sy1, sx0:sx1] = pixels
@@ -465,12 +519,15 @@ class Renderer:
             if self.kind == "tag"
             else f"disc r={self._disc[1]:g} m"
             if self.kind == "disc"
+            else f"texture {self._image.shape[1]}x{self._image.shape[0]}"
+            if self.kind == "texture"
             else f"polygon of {len(self.target)} vertices"
         )
+        light = "" if (self.gain, self.offset) == (1.0, 0.0) else f", gain={self.gain:g}, offset={self.offset:g}"
         return (
             f"Renderer({what}, {self.size[0]}x{self.size[1]}, blur={self.blur:g} px, "
             f"exposure={self.exposure:g} s, "
-            f"noise={self.noise:g})"
+            f"noise={self.noise:g}{light})"
         )
 
 

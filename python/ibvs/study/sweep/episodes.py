@@ -38,12 +38,13 @@ def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict]
         servo.angle_wrap = setup.angle_wrap
     # The noise seed is the episode's, shared by every scheme.
     noise_seed = int(np.random.default_rng([int(spec.seed), int(index), 1]).integers(0, 2**63))
-    r = sim.run(servo, setup.camera, target, start, setup.goal_for_run(), robot=setup.robot,
+    sensor = None if factory is not None else schemes.sensor_for(scheme, setup.camera, setup.target)
+    r = sim.run(servo, setup.camera if sensor is None else sensor.renderer.camera, target, start, setup.goal_for_run(), robot=setup.robot,
                 duration=setup.duration, noise=p["noise"], latency=int(p["latency"]), depth=setup.depth,
                 seed=noise_seed, tolerance=setup.tolerances()[0], tolerance_px=setup.tolerances()[1],
                 depth_scale=p["depth_scale"],
                 boundary_margin=setup.boundary_margin, boundary_gain=setup.boundary_gain,
-                goal_pose=setup.goal_pose_mode)
+                goal_pose=setup.goal_pose_mode, vision=sensor)
     s, m, h = r.status, r.metrics, r.history
     twist = h.twist[np.isfinite(h.twist).all(axis=1)]
     # the commanded twist's peaks, as before (bit for bit: Metrics.peak_commanded_* skip only NaN norms)
