@@ -44,8 +44,9 @@ def test_every_option_that_writes_a_path_is_registered_with_add_output():
     suspects = []
     for name, action in options():
         flag = action.option_strings[-1]
+        numeric = getattr(action.type, "__name__", "") in ("number", "integer", "numbers") or action.choices
         looks = OUTPUT_NAMES.match(flag) or (OUTPUT_HELP.search(action.help or "") and (name, flag) not in NOT_PATHS
-                                              and getattr(action.type, "__name__", "") not in ("number", "integer"))
+                                              and not numeric)
         if looks and not a.is_output(action):
             suspects.append(f"ibvs {name} {flag}")
     assert not suspects, f"register these with ibvs.cli.args.add_output: {suspects}"

@@ -35,6 +35,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from .._finite import finite_within
+
 import ibvs
 
 from .. import sim
@@ -234,8 +236,9 @@ def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, 
     if start.shape != (4, 4) or not np.isfinite(start).all():
         raise ValueError(f"start must be a finite 4x4 pose (world <- camera), got shape {start.shape}")
     R = start[:3, :3]
-    if (np.abs(R).max() > 1.0 + 1e-6 or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0
-            or np.abs(start[3] - (0, 0, 0, 1)).max() > 0 or np.abs(start[:3, 3]).max() > 1e3):
+    if (not finite_within(R, 1.0 + 1e-6) or not finite_within(R.T @ R - np.eye(3), 1e-6)
+            or np.linalg.det(R) < 0 or not finite_within(start[3] - (0, 0, 0, 1), 0.0)
+            or not finite_within(start[:3, 3], 1e3)):
         raise ValueError("start must be a rigid transform (rotation, translation within 1 km, last row 0 0 0 1)")
     if not (isinstance(duration, (int, float)) and 0 < duration <= 3600):
         raise ValueError(f"duration must be in (0, 3600] seconds, got {duration!r}")
@@ -297,7 +300,7 @@ def summarise(study: str, start: str, scheme: str, T0: np.ndarray, o: Outcome) -
     a = off_axis(P)
     reached = bool(o.final_translation_error < REACHED[0] and o.final_rotation_error < REACHED[1])
     return Row(study, start, scheme, math.degrees(off_axis(P.mean(axis=0)[None])[0]), math.degrees(a.max()),
-               cannot_see(T0), bool(a.max() > PINHOLE_HALF_FOV), o.outcome, o.outcome == "converged", reached,
+               cannot_see(T0), bool((a > PINHOLE_HALF_FOV).any()), o.outcome, o.outcome == "converged", reached,
                o.outcome not in OUT_OF_VIEW + ("cannot_see",), o.camera_retreat, o.axial_retreat, o.path_length,
                o.peak_linear_speed, o.peak_angular_speed, o.final_translation_error, o.final_rotation_error)
 
