@@ -714,8 +714,7 @@ constexpr auto fuzz_passthrough = [](const double* m, double* s, Eigen::Ref<Matr
 };
 
 void passthrough_measurement(Bytes& b, double* m) {
-  for (int i = 0; i < 14; ++i) m[i] = b.coordinate();
-  while (b.byte() >= 160) m[b.byte() % 14] = 7.0 + b.byte() % 3;  // NaN, inf or huge at a random entry
+  for (int i = 0; i < 14; ++i) m[i] = b.byte() < 232 ? b.coordinate() : 7.0 + b.byte() % 3;  // NaN, inf, huge
   b.poison(m, 14);
 }
 
