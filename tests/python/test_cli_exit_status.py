@@ -104,3 +104,27 @@ def test_compare_and_wide_bad_numbers_are_one_line(argv, capsys):
 
 def test_the_commands_tuple_names_every_command():
     assert set(cli.COMMANDS) == set(command_parsers())
+
+
+def _statuses(epilog: str) -> dict[str, str]:
+    """code -> meaning, from an exit_status() epilog (its wrapped lines joined)."""
+    out: dict[str, str] = {}
+    code = None
+    for line in epilog.splitlines()[1:]:
+        m = re.match(r"\s+(\d+)  (.*)", line)
+        if m:
+            code = m.group(1)
+            out[code] = m.group(2)
+        else:
+            out[code] += " " + line.strip()
+    return out
+
+
+def test_docs_table_of_exit_statuses_is_every_commands_help():
+    page = (ROOT / "docs/conventions.md").read_text()
+    rows = dict((m.group(1), (m.group(2), m.group(3))) for m in
+                re.finditer(r"^\| `ibvs (\w+)` \| (.*?) \| (.*?) \|$", page, re.M))
+    assert set(rows) == set(command_parsers())
+    for name, parser in command_parsers().items():
+        codes = _statuses(parser.epilog)
+        assert rows[name] == (codes["0"], codes.get("1", "—")), name

@@ -10,11 +10,13 @@
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
 Every bad argument exits with status 2 and one line before any work starts (so does a missing optional
-extra, naming it, and `ibvs` without a command, after its usage); every output path
-(--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out) is tried for writing then. An interrupted sweep
-(Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
-sweep whose Dask scheduler dies (exit status 1). Output into a closed pipe (`ibvs ... | head -1`) ends
-the command quietly with status 141.
+extra, naming it, and `ibvs` without a command, after its usage); every output path is registered with
+args.add_output and tried for writing then (test_cli_outputs.py walks every command's parser to check it). A
+sweep locks its CSV (ibvs.writer_lock): a second writer gets one line naming the holder's pid and status 2. An
+interrupted command (Ctrl-C: 130, SIGTERM: 143) says so in one line; a sweep keeps every finished row and says how
+to resume, as does a sweep whose Dask scheduler dies (exit status 1). An internal error (a bug) prints its
+traceback and one line, status 3. Output into a closed pipe (`ibvs ... | head -1`) ends the command quietly with
+status 141. Each command's --help ends with what its statuses mean (args.exit_status).
 
 Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
 sweep`), replay (`ibvs replay`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
