@@ -19,7 +19,7 @@ import ibvs
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The one place allowed to compare a largest magnitude (it checks allFinite() first).
-HELPERS = {ROOT / "cpp/include/ibvs/finite.hpp", ROOT / "python/ibvs/_finite.py"}
+HELPERS = {ROOT / "cpp/include/ibvs/finite.hpp", ROOT / "python/ibvs/finite.py"}
 CMP = r"\s*(<=|>=|<(?!<)|>(?!>))"
 #: A largest or smallest coefficient compared with something: NaN-blind unless every entry is known finite.
 CPP_PATTERN = re.compile(r"(max|min)Coeff\(\)" + CMP)
@@ -55,11 +55,11 @@ def test_no_cpp_check_compares_max_coeff():
 
 def test_no_python_check_compares_a_max():
     found = offenders(PY_PATTERN, {".py", ".pyi"})
-    assert not found, "use ibvs._finite.finite_within (python/ibvs/_finite.py):\n" + "\n".join(found)
+    assert not found, "use ibvs.finite.finite_within (python/ibvs/finite.py):\n" + "\n".join(found)
 
 
 def test_python_helper_is_exact_at_any_position():
-    from ibvs._finite import finite_within
+    from ibvs.finite import finite_within
 
     for n in (1, 2, 3, 7, 16, 33):
         for i in range(n):

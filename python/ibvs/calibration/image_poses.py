@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 from .._core import CameraModel, PlanarPose
 

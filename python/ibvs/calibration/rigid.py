@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 __all__ = [
     "MAX_TRANSLATION",

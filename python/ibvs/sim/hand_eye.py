@@ -24,7 +24,7 @@ from typing import Optional
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 from .._core import CameraModel
 from .._core import sim as _sim

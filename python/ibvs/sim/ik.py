@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 from .._core import sim as _sim
 

@@ -23,7 +23,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 import ibvs
 

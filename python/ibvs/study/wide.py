@@ -35,7 +35,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 import ibvs
 

@@ -23,7 +23,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .._finite import finite_within
+from ..finite import finite_within
 
 from .._core import se3_exp
 from .._core import sim as _sim

@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# Used inside ibvs only.
-__all__: list[str] = []
+__all__ = ["finite_within"]
 
 
 def finite_within(x, bound: float) -> bool:
