@@ -336,7 +336,7 @@ damping at most 1e150 in magnitude; a nonzero J needs an entry of at least 1e-15
         const auto x = vector(a, "twist");
         if (x.size() != 6) throw py::value_error("twist must have shape (6,), got " + shape_of(a));
         if (!x.allFinite()) throw py::value_error("twist must be finite");
-        if (x.cwiseAbs().maxCoeff() > max_twist_entry)
+        if (!finite_within(x, max_twist_entry))
           throw py::value_error("twist entries must be at most 1e300 in magnitude");
         return Eigen::Matrix4d(se3_exp(x));
       },

@@ -150,8 +150,8 @@ class PyFunctionFeature final : public Feature {
     } catch (const std::exception& err) {
       return fail(std::string("fn: ") + err.what());
     }
-    if (!(e.s.cwiseAbs().maxCoeff() <= max_matrix_entry)) return fail("fn's s is not finite (or beyond 1e150)");
-    if (!(e.L.cwiseAbs().maxCoeff() <= max_matrix_entry)) return fail("fn's L is not finite (or beyond 1e150)");
+    if (!finite_within(e.s, max_matrix_entry)) return fail("fn's s is not finite (or beyond 1e150)");
+    if (!finite_within(e.L, max_matrix_entry)) return fail("fn's L is not finite (or beyond 1e150)");
     std::copy(m, m + size_, e.m.data());
     e.valid = true;
     return nullptr;

@@ -714,8 +714,8 @@ void CameraModel::validate_bearings(const Eigen::Ref<const Bearings>& bearings, 
     if (from_bearing(b.x(), b.y(), b.z(), p)) continue;
     const std::string which = std::string(name) + "[" + std::to_string(i) + "]";
     if (!b.allFinite()) fail(which + " is not finite");
-    if (!(b.cwiseAbs().maxCoeff() > 0.0)) fail(which + " has zero length (a bearing is a direction)");
-    const Eigen::Vector3d d = b / b.cwiseAbs().maxCoeff();  // scaled: its norm cannot overflow
+    if (b.isZero(0.0)) fail(which + " has zero length (a bearing is a direction)");
+    const Eigen::Vector3d d = b / largest_magnitude(b);  // scaled: its norm cannot overflow
     const double angle = std::acos(std::clamp(d.z() / d.norm(), -1.0, 1.0));
     if (angle < angle_max_)  // omnidir's tangential terms fold inside max_angle
       fail(which + " lies " + num(angle * 180.0 / pi) + " degrees off the axis, where the " + to_string(distortion_) +

@@ -4,6 +4,7 @@
 // input). Messages name the argument. Limits: ibvs/limits.hpp.
 #pragma once
 
+#include "ibvs/finite.hpp"
 #include "ibvs/layout.hpp"
 #include "ibvs/limits.hpp"
 

@@ -43,7 +43,7 @@ void check_options(const DepthEstimatorOptions& o) {
 // The camera's motion between frames: rigid, its translation within max_depth (the same test for
 // validate() and update()).
 bool valid_motion(const Pose& motion) noexcept {
-  if (!motion.allFinite() || motion.topRightCorner<3, 1>().cwiseAbs().maxCoeff() > max_depth) return false;
+  if (!motion.allFinite() || !finite_within(motion.topRightCorner<3, 1>(), max_depth)) return false;
   const Eigen::Matrix3d R = motion.topLeftCorner<3, 3>();
   return (R.transpose() * R).isIdentity(1e-9) && std::abs(R.determinant() - 1.0) <= 1e-9 && motion(3, 0) == 0.0 &&
          motion(3, 1) == 0.0 && motion(3, 2) == 0.0 && motion(3, 3) == 1.0;

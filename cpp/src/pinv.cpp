@@ -19,7 +19,7 @@ namespace {
 double check_matrix(const Eigen::Ref<const MatrixX6>& J) {
   if (J.rows() == 0) throw std::invalid_argument("ibvs: J must have at least one row");
   if (!J.allFinite()) throw std::invalid_argument("ibvs: J must contain only finite values");
-  const double m = J.cwiseAbs().maxCoeff();
+  const double m = largest_magnitude(J);  // J is finite (checked above)
   if (m > max_matrix_entry)
     throw std::invalid_argument("ibvs: J has an entry of magnitude " + detail::number(m) + ", above the limit " +
                                 detail::number(max_matrix_entry));

@@ -28,7 +28,7 @@ PlanarPose::PlanarPose(const Eigen::Matrix3Xd& points, int iterations) : points_
   if (points_.cols() < 4)
     throw std::invalid_argument("ibvs: points: a planar pose needs at least 4 target points, got " +
                                 std::to_string(points_.cols()));
-  if (!points_.allFinite() || points_.cwiseAbs().maxCoeff() > max_depth)  // maxCoeff alone may skip a NaN
+  if (!finite_within(points_, max_depth))
     throw std::invalid_argument("ibvs: points must be finite and within +-" + detail::number(max_depth) + " m");
   for (Eigen::Index i = 0; i < points_.cols(); ++i)
     if (std::abs(points_(2, i)) > 1e-12)

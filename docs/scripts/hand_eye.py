@@ -10,11 +10,11 @@ Writes DIR/figures/hand_eye_errors.png and, when DIR/hand-eye.md exists, replace
 the <!-- hand_eye:NAME --> and <!-- /hand_eye:NAME --> markers); prints both tables. DIR defaults to the docs/
 folder beside this script. --quick: 2 data sets, 2 starts, 1 direction, the grid's corners (for the tests).
 """
-import argparse
 import re
 import time
 from pathlib import Path
 
+from ibvs.cli import args as cli_args
 from ibvs.study import hand_eye as he
 
 
@@ -27,10 +27,12 @@ def replace(page: Path, name: str, table: str) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = cli_args.Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a few episodes: checks that it runs")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: the CPUs)")
-    parser.add_argument("--docs", type=Path, default=Path(__file__).resolve().parents[1], help="the docs folder")
+    # tried for writing when parsed, before any work (as every output path of the command line)
+    cli_args.add_output(parser, "--docs", type=cli_args.out_dir, default=str(Path(__file__).resolve().parents[1]),
+                        help="the docs folder")
     a = parser.parse_args()
     start = time.perf_counter()
     rows = he.accuracy(seeds=2, tag_seeds=1) if a.quick else he.accuracy(seeds=20, tag_seeds=10)

@@ -8,19 +8,21 @@ depths, 15 s), each without avoidance and with ibvs.SecondaryTask's joint-limit 
 the large projector. Prints the table of outcome shares and, when DIR/arms.md exists, replaces the one between its
 <!-- joint_limits:shares --> and <!-- /joint_limits:shares --> markers. --quick: 2 starts (for the tests).
 """
-import argparse
 import re
 import time
 from pathlib import Path
 
+from ibvs.cli import args as cli_args
 from ibvs.study import joint_limits as jl
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = cli_args.Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=100, help="random starts per arm")
     parser.add_argument("--quick", action="store_true", help="2 starts: checks that it runs")
-    parser.add_argument("--docs", type=Path, default=Path(__file__).resolve().parents[1], help="the docs folder")
+    # tried for writing when parsed, before any work (as every output path of the command line)
+    cli_args.add_output(parser, "--docs", type=cli_args.out_dir, default=str(Path(__file__).resolve().parents[1]),
+                        help="the docs folder")
     a = parser.parse_args()
     start = time.perf_counter()
     rows = jl.sweep(("panda", "ur5"), starts=2 if a.quick else a.starts, laws=("stacked", "cartesian", "polar"))

@@ -648,10 +648,14 @@ def format_photometric(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str = "python -m ibvs.bench") -> argparse.ArgumentParser:
+    """The benchmark's parser; `prog` heads its help and its one-line errors (`ibvs bench` from the ibvs command)."""
     from .cli.args import Parser, number
 
-    p = Parser(prog="python -m ibvs.bench", description=__doc__.split("\n\n")[0])
+    from .cli.args import exit_status
+
+    p = Parser(prog=prog, description=__doc__.split("\n\n")[0],
+               epilog=exit_status("timed; the table (or the JSON line) printed"))
     p.add_argument("--iterations", type=number(1, 10**8, integer=True), default=20000,
                    help="timed calls per case (1 to 1e8; default 20000)")
     p.add_argument("--n", type=number(1, 10000, integer=True), default=4,
@@ -671,13 +675,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str = "python -m ibvs.bench") -> int:
     """`python -m ibvs.bench [OPTIONS]` (sys.argv[1:] by default): run the benchmark and print its table, or one
     JSON line with --json; --vision times the image loop instead. Returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["--"]:  # as forwarded by `ibvs bench -- ...`
         argv = argv[1:]
-    args = build_parser().parse_args(argv)
+    args = build_parser(prog).parse_args(argv)
     if args.loop:
         res = run_loop(args.frames)
         print(json.dumps(res, allow_nan=False) if args.json else format_loop(res))

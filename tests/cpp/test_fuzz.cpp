@@ -77,6 +77,25 @@ struct Bytes {
   /// Mostly plausible values (normalised coordinates, depths) with occasional hostile ones.
   double coordinate() noexcept { return byte() < 200 ? (byte() - 127.5) / 300.0 : real(); }
   double depth() noexcept { return byte() < 200 ? 0.1 + byte() / 25.0 : real(); }
+  /// NaN, +-inf or a huge magnitude (beyond every limit of limits.hpp).
+  double hostile() noexcept {
+    const double sign = byte() & 1 ? -1.0 : 1.0;
+    switch (byte() % 3) {
+      case 0: return std::numeric_limits<double>::quiet_NaN();
+      case 1: return sign * std::numeric_limits<double>::infinity();
+      default: return sign * 1e300 * (1.0 + byte());
+    }
+  }
+  /// Now and then, hostile values at random positions of x (any entry, not only the first): every
+  /// array input goes through this, so a check that looks at some entries only is found.
+  void poison(double* x, Eigen::Index n) noexcept {
+    if (n <= 0) return;
+    while (byte() >= 216) x[byte() % n] = hostile();
+  }
+  template <class M>
+  void poison(M& x) noexcept {
+    poison(x.data(), x.size());
+  }
 };
 
 bool finite(double x) { return std::isfinite(x); }
@@ -156,6 +175,7 @@ void fuzz_servo(Bytes& b) {
     for (Eigen::Index i = 0; i < uvd.size(); ++i) uvd.data()[i] = b.coordinate();
     for (Eigen::Index i = 0; i < z.size(); ++i) z(i) = b.depth();
     for (Eigen::Index i = 0; i < zd.size(); ++i) zd(i) = b.depth();
+    b.poison(uv), b.poison(uvd), b.poison(z), b.poison(zd);
     bool valid = true;
     try {
       servo->validate(uv, z, uvd, zd);
@@ -188,6 +208,7 @@ void fuzz_partitioned(Bytes& b) {
   for (Eigen::Index i = 0; i < uv.size(); ++i) uv.data()[i] = b.coordinate();
   for (Eigen::Index i = 0; i < uvd.size(); ++i) uvd.data()[i] = b.coordinate();
   for (Eigen::Index i = 0; i < n; ++i) z(i) = b.depth();
+  b.poison(uv), b.poison(uvd), b.poison(z);
   bool valid = true;
   try {
     servo->validate(uv, z, uvd);
@@ -205,6 +226,7 @@ void fuzz_pinv_exp(Bytes& b) {
   const bool hostile = b.byte() < 128;
   const double scale = b.real();
   for (Eigen::Index i = 0; i < J.size(); ++i) J.data()[i] = hostile ? b.real() : scale * (b.byte() - 127.5);
+  b.poison(J);
   const double lambda = b.byte() < 100 ? 0.0 : b.real();
   try {
     const Eigen::Matrix<double, 6, Eigen::Dynamic> P = damped_pinv(J, lambda);
@@ -217,6 +239,7 @@ void fuzz_pinv_exp(Bytes& b) {
   }
   Twist xi;
   for (int i = 0; i < 6; ++i) xi(i) = b.real();
+  b.poison(xi);
   if (xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry) {  // se3_exp's documented domain
     const Pose T = se3_exp(xi);
     CHECK(T.allFinite());
@@ -234,6 +257,7 @@ void fuzz_mounting_secondary(Bytes& b) {
   const auto value = [&] { return hostile ? b.real() : b.coordinate(); };
   Pose bMc = Pose::Identity();
   if (b.byte() < 40) bMc(b.small(0, 3), b.small(0, 3)) = b.real();
+  b.poison(bMc);
   JointMappingOptions mo;
   mo.mounting = b.byte() < 128 ? Mounting::eye_to_hand : Mounting::eye_in_hand;
   mo.frame = b.byte() < 128 ? JacobianFrame::base : JacobianFrame::end_effector;
@@ -248,6 +272,7 @@ void fuzz_mounting_secondary(Bytes& b) {
   for (int i = 0; i < 6; ++i) in.twist(i) = value();
   in.base_pose.topRightCorner<3, 1>() << value(), value(), value();
   if (b.byte() < 30) in.base_pose(b.small(0, 3), b.small(0, 2)) = b.real();
+  b.poison(in.jacobian), b.poison(in.twist), b.poison(in.base_pose);
   if (map) {
     bool valid = true;
     try {
@@ -273,6 +298,7 @@ void fuzz_mounting_secondary(Bytes& b) {
     so.max_joint_acceleration = JointVector::Constant(n, b.byte() < 30 ? b.real() : 2.0);
     so.period = b.byte() < 30 ? b.real() : 0.01;
   }
+  b.poison(so.q_min), b.poison(so.q_max), b.poison(so.max_joint_speed), b.poison(so.max_joint_acceleration);
   std::optional<SecondaryTask> task;
   try {
     task.emplace(n, so);
@@ -293,6 +319,8 @@ void fuzz_mounting_secondary(Bytes& b) {
     sin.qdot_previous(i) = value();
     sin.joints(i) = value();
   }
+  b.poison(sin.task_gram), b.poison(sin.task_gradient), b.poison(sin.twist), b.poison(sin.camera_jacobian);
+  b.poison(sin.qdot), b.poison(sin.q), b.poison(sin.qdot_previous), b.poison(sin.joints);
   bool valid = true;
   try {
     task->validate(sin);
@@ -343,6 +371,7 @@ void fuzz_smooth(Bytes& b) {
     in.uv_desired.col(i) << b.coordinate(), b.coordinate();
     in.depth_desired(i) = b.depth();
   }
+  b.poison(in.uv_desired), b.poison(in.depth_desired);
   for (int frame = 0; frame < 6; ++frame) {
     for (int i = 0; i < n; ++i) {
       in.valid(i) = b.byte() < 200;
@@ -350,6 +379,7 @@ void fuzz_smooth(Bytes& b) {
       in.uv.col(i) << (hostile ? b.real() : b.coordinate()), (hostile ? b.real() : b.coordinate());
       in.depth(i) = hostile ? b.real() : b.depth();
     }
+    b.poison(in.uv), b.poison(in.depth);
     if (b.byte() > 250) in.valid.resize(n + 1), in.valid.setConstant(true);  // a wrong size
     bool accepted = true;
     try {
@@ -388,6 +418,7 @@ void fuzz_wide(Bytes& b) {
         0, 0, 1;
     Eigen::Vector4d d;
     for (int i = 0; i < 4; ++i) d(i) = b.byte() < 200 ? (b.byte() - 127.5) / 2000.0 : b.real();
+    b.poison(K), b.poison(d);
     if (b.byte() % 2) cam.emplace(CameraModel::from_opencv(K, d, 1280, 1024, true));
     else cam.emplace(CameraModel::from_omnidir(K, b.byte() < 200 ? b.byte() / 80.0 : b.real(), d, 1280, 1024));
   } catch (const std::invalid_argument&) {
@@ -397,6 +428,7 @@ void fuzz_wide(Bytes& b) {
   for (int k = 0; k < 4; ++k) {
     Points px(2, 1);
     px << (b.byte() < 200 ? b.byte() * 6.0 : b.real()), (b.byte() < 200 ? b.byte() * 5.0 : b.real());
+    b.poison(px);
     Eigen::Vector3d v;
     const bool ok = cam->to_bearing(px(0, 0), px(1, 0), v);
     CHECK(ok ? v.allFinite() && std::abs(v.norm() - 1.0) < 1e-12 : std::isnan(v.x()));
@@ -409,6 +441,7 @@ void fuzz_wide(Bytes& b) {
     CHECK(threw == !ok);
     Bearings d(3, 1);
     d << b.coordinate(), b.coordinate(), b.coordinate();
+    b.poison(d);
     Eigen::Vector2d q;
     const bool okb = cam->from_bearing(d(0), d(1), d(2), q);
     CHECK(okb ? q.allFinite() : std::isnan(q.x()));
@@ -433,6 +466,7 @@ void fuzz_planar_bearings(Bytes& b) {
   Eigen::Matrix3Xd P = Eigen::Matrix3Xd::Zero(3, n);
   P.leftCols(4) << -0.2, 0.2, 0.2, -0.2, -0.2, -0.2, 0.2, 0.2, 0.0, 0.0, 0.0, 0.0;
   for (int i = 4; i < n; ++i) P.block<2, 1>(0, i) << b.coordinate(), b.coordinate();
+  b.poison(P);
   std::optional<PlanarPose> est;
   try {
     est.emplace(P, b.small(0, 8));
@@ -451,6 +485,7 @@ void fuzz_planar_bearings(Bytes& b) {
     else if (how < 60) bear.col(i) *= -1.0;
     else if (how < 100) bear.col(i) += 1e-3 * Eigen::Vector3d(b.coordinate(), b.coordinate(), b.coordinate());
   }
+  b.poison(bear);
   const Pose keep = Pose::Constant(3.0);
   Pose T = keep;
   Eigen::VectorXd range = Eigen::VectorXd::Constant(n, 3.0);
@@ -556,6 +591,7 @@ void measured(Bytes& b, const Feature& f, std::array<double, N> (*from)(Bytes&),
   }
   std::copy(v.begin(), v.end(), m);
   while (b.byte() > 230) m[b.small(0, static_cast<int>(N) - 1)] = b.byte() < 128 ? b.real() : b.coordinate();
+  b.poison(m, static_cast<Eigen::Index>(N));
 }
 
 void segment_measurement(Bytes& b, double* m) {
@@ -606,6 +642,7 @@ void moments_measurement(Bytes& b, double* m) {
     for (double& x : v) x = b.real();
   std::copy(v.begin(), v.end(), m);
   while (b.byte() > 230) m[b.small(0, 19)] = b.byte() < 128 ? b.real() : b.coordinate();
+  b.poison(m, 20);
 }
 
 MomentsFeature moments_kind(Bytes& b) {
@@ -631,6 +668,7 @@ Pose fuzz_rigid_pose(Bytes& b) {
   Pose T = xi.allFinite() && xi.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(xi) : Pose::Identity();
   if (b.byte() > 240) T.topLeftCorner<3, 3>() = rotation_of(pi * Eigen::Vector3d::UnitZ());  // theta u at pi
   if (b.byte() > 240) T(b.small(0, 2), b.small(0, 3)) = b.real();
+  b.poison(T);
   return T;
 }
 
@@ -662,6 +700,25 @@ constexpr auto fuzz_inverse = [](const double* m, double* s, Eigen::Ref<MatrixX6
   return m[0] != 1.0;
 };
 
+// A user's block of 2 rows whose s and L are its 14 measurement entries, decoded: the codes 7, 8 and 9
+// give NaN, +-inf and -1e200, so any entry of s or L (not only the first) may be non-finite or huge,
+// and check() must then refuse the block (validate() throws, update() returns invalid_input).
+constexpr auto fuzz_passthrough = [](const double* m, double* s, Eigen::Ref<MatrixX6> L) noexcept {
+  const auto decode = [](double x) {
+    return x == 7.0 ? std::numeric_limits<double>::quiet_NaN()
+                    : x == 8.0 ? std::numeric_limits<double>::infinity() : x == 9.0 ? -1e200 : x;
+  };
+  for (int i = 0; i < 2; ++i) s[i] = decode(m[i]);
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 6; ++j) L(i, j) = decode(m[2 + 6 * i + j]);
+  return true;
+};
+
+void passthrough_measurement(Bytes& b, double* m) {
+  for (int i = 0; i < 14; ++i) m[i] = b.byte() < 232 ? b.coordinate() : 7.0 + b.byte() % 3;  // NaN, inf, huge
+  b.poison(m, 14);
+}
+
 const FuzzKind fuzz_kinds[] = {
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<LineFeature>(); }, line_measurement},
     {[](Bytes&) -> std::unique_ptr<Feature> { return std::make_unique<SphericalPointFeature>(); }, spherical_measurement},
@@ -683,6 +740,10 @@ const FuzzKind fuzz_kinds[] = {
        return std::make_unique<FunctionFeature<decltype(fuzz_inverse)>>(1, 1, fuzz_inverse);
      },
      [](Bytes& b, double* m) { m[0] = b.byte() < 200 ? b.coordinate() : b.real(); }},
+    {[](Bytes&) -> std::unique_ptr<Feature> {
+       return std::make_unique<FunctionFeature<decltype(fuzz_passthrough)>>(2, 14, fuzz_passthrough);
+     },
+     passthrough_measurement},
 };
 
 void fuzz_task(Bytes& b) {
@@ -728,6 +789,7 @@ void fuzz_task(Bytes& b) {
     for (Eigen::Index i = 0; i < in.uv_desired.size(); ++i) in.uv_desired.data()[i] = b.coordinate();
     for (Eigen::Index i = 0; i < in.depth.size(); ++i) in.depth(i) = b.depth();
     for (Eigen::Index i = 0; i < in.depth_desired.size(); ++i) in.depth_desired(i) = b.depth();
+    b.poison(in.uv), b.poison(in.uv_desired), b.poison(in.depth), b.poison(in.depth_desired);
     for (int k = 0; k < task->n_features(); ++k) {
       kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements.data() + task->offset(k));
       kind_of[static_cast<std::size_t>(k)]->measure(b, in.measurements_desired.data() + task->offset(k));
@@ -757,6 +819,7 @@ void fuzz_sources(Bytes& b) {
   Eigen::Matrix3Xd P(3, n);
   const bool plate = b.byte() < 160;
   for (Eigen::Index i = 0; i < P.size(); ++i) P.data()[i] = plate && i % 3 == 2 ? 0.0 : b.coordinate();
+  b.poison(P);
   Target t;
   try {
     t = Target(P);
@@ -768,6 +831,7 @@ void fuzz_sources(Bytes& b) {
   Twist xi, xd;
   for (int i = 0; i < 6; ++i) xi(i) = b.byte() < 200 ? (b.byte() - 127.5) / 40.0 : b.real();
   for (int i = 0; i < 6; ++i) xd(i) = b.byte() < 200 ? (b.byte() - 127.5) / 40.0 : b.real();
+  b.poison(xi), b.poison(xd);
   const auto pose = [](const Twist& x) {
     return x.allFinite() && x.cwiseAbs().maxCoeff() <= max_twist_entry ? se3_exp(x) : Pose(Pose::Constant(x(0)));
   };
@@ -780,6 +844,7 @@ void fuzz_sources(Bytes& b) {
   for (Eigen::Index i = 0; i < n; ++i) z(i) = b.depth();
   Bearings bearings(3, n);  // any values, also not unit (the spherical source passes them on)
   for (Eigen::Index i = 0; i < bearings.size(); ++i) bearings.data()[i] = b.byte() < 16 ? b.real() : b.coordinate();
+  b.poison(uv), b.poison(z), b.poison(bearings);
   f.points = &t.points;
   f.uv = &uv;
   f.depth = &z;

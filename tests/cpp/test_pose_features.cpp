@@ -348,6 +348,31 @@ void function_feature() {
   CHECK(bad.check(one, entry) == nullptr);
   CHECK_THROWS(FunctionFeature(0, 1, point));
   CHECK_THROWS(FunctionFeature(max_function_rows + 1, 1, point));
+  // A NaN, an infinity or a huge value at ANY entry of s or L is refused (issue 35: a check comparing
+  // maxCoeff() with a bound let a NaN past the first entry through, and update() gave a NaN twist).
+  for (int rows = 1; rows <= 3; ++rows)
+    for (int k = 0; k < 7 * rows; ++k)
+      for (const double v : {std::nan(""), -std::numeric_limits<double>::infinity(), 1e200}) {
+        const auto poisoned = [rows, k, v](const double*, double* s, Eigen::Ref<MatrixX6> L) noexcept {
+          for (int i = 0; i < rows; ++i) s[i] = 0.1;
+          L.setConstant(0.5);
+          if (k < rows) s[k] = v;
+          else L.data()[k - rows] = v;
+          return true;
+        };
+        const FunctionFeature g(rows, 1, poisoned);
+        const double m[1] = {0.5};
+        CHECK(g.check(m, entry) != nullptr);
+        Task one;
+        one.add(g);
+        Servo servo(one);
+        ServoInput in(one);
+        ServoOutput out(one);
+        in.measurements << 0.5;
+        in.measurements_desired << 0.4;
+        CHECK_THROWS(servo.validate(in));
+        CHECK(servo.update(in, out) == Status::invalid_input && out.velocity.isZero(0.0));
+      }
   // Mixed: a point function block and a PBVS block; the twist against the stacked least-squares solve.
   Task mixed;
   mixed.add(f, 2.0).add(PbvsFeature(PbvsTarget::object));

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 
 from ibvs import sim
 from ibvs.study.scenario import load
 
+from test_properties import hostile_arrays
 from test_properties_more import ENTRY, refused_by_name
 
 pytest.importorskip("pinocchio")
@@ -34,7 +34,7 @@ ANGLE = st.one_of(st.floats(-4.0, 4.0), st.sampled_from([math.pi, -math.pi, 1e-3
 def camera_poses(draw):
     """A rigid pose (most), or any 4x4 array (refused unless it happens to be rigid)."""
     if draw(st.integers(0, 3)) == 0:
-        return draw(hnp.arrays(np.float64, (4, 4), elements=ENTRY))
+        return draw(hostile_arrays(np.float64, (4, 4), elements=ENTRY))
     T = np.eye(4)
     T[:3, :3] = sim.poses.rotation_matrix(*(draw(ANGLE) for _ in range(3)))
     T[:3, 3] = [draw(METRES) for _ in range(3)]
@@ -56,7 +56,7 @@ def valid_pose(T) -> bool:
        st.sampled_from([0.5, 2.0, 0.0, math.inf, math.nan, -1.0]))
 def test_solve_ik_finite_or_refused(name, T, n_q0, data, tolerance, iterations, restarts, seed, max_step):
     robot = ROBOTS[name]
-    q0 = None if n_q0 is None else data.draw(hnp.arrays(np.float64, n_q0, elements=ENTRY))
+    q0 = None if n_q0 is None else data.draw(hostile_arrays(np.float64, n_q0, elements=ENTRY))
     try:
         r = sim.solve_ik(robot, T, q0, tolerance=tolerance, max_iterations=iterations, restarts=restarts, seed=seed,
                          max_step=max_step)

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 
 import ibvs
+from test_properties import hostile_arrays
 
 KINDS = {"desired_camera": ibvs.PbvsFeature("desired_camera"), "object": ibvs.PbvsFeature("object"),
          "2.5-D": ibvs.Point25DFeature()}
@@ -19,8 +19,8 @@ _any = st.one_of(st.floats(-10, 10), st.floats(allow_nan=True, allow_infinity=Tr
 
 
 @settings(max_examples=150)
-@given(st.sampled_from(list(KINDS)), hnp.arrays(np.float64, 6, elements=_any),
-       hnp.arrays(np.float64, 6, elements=_any), st.sampled_from(["current", "desired", "mean"]))
+@given(st.sampled_from(list(KINDS)), hostile_arrays(np.float64, 6, elements=_any),
+       hostile_arrays(np.float64, 6, elements=_any), st.sampled_from(["current", "desired", "mean"]))
 def test_pose_measurements_finite_or_refused(kind, m, md, jacobian):
     f = KINDS[kind]
     servo = ibvs.Servo(ibvs.Task().add(f), gain=1.0, damping=0.01, jacobian=jacobian)
@@ -34,7 +34,7 @@ def test_pose_measurements_finite_or_refused(kind, m, md, jacobian):
 
 
 @settings(max_examples=100)
-@given(hnp.arrays(np.float64, 2, elements=_any), hnp.arrays(np.float64, (2, 6), elements=_any),
+@given(hostile_arrays(np.float64, 2, elements=_any), hostile_arrays(np.float64, (2, 6), elements=_any),
        st.sampled_from(["ok", "raise", "shape", "none"]))
 def test_function_outputs_finite_or_refused(s, L, mode):
     def fn(m):

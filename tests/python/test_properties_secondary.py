@@ -10,9 +10,9 @@ import math
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 
 import ibvs
+from test_properties import hostile_arrays
 from ibvs import sim
 
 from test_properties_more import ENTRY, refused_by_name
@@ -27,7 +27,7 @@ ANGLE = st.floats(-4.0, 4.0)
 def poses(draw):
     """A rigid pose (most), or any 4x4 array."""
     if draw(st.integers(0, 3)) == 0:
-        return draw(hnp.arrays(np.float64, (4, 4), elements=ENTRY))
+        return draw(hostile_arrays(np.float64, (4, 4), elements=ENTRY))
     T = np.eye(4)
     T[:3, :3] = sim.poses.rotation_matrix(*(draw(ANGLE) for _ in range(3)))
     T[:3, 3] = [draw(MODERATE) for _ in range(3)]
@@ -46,14 +46,16 @@ def rigid(T) -> bool:
 @given(st.integers(1, 9), poses(), poses(), st.sampled_from(["end_effector", "base"]), st.data(), st.booleans())
 def test_eye_to_hand_mapping_finite_or_refused(n, bMc, bMe, frame, data, hostile):
     elements = ENTRY if hostile else MODERATE
-    J = data.draw(hnp.arrays(np.float64, (6, n), elements=elements))
-    twist = data.draw(hnp.arrays(np.float64, 6, elements=elements))
+    J = data.draw(hostile_arrays(np.float64, (6, n), elements=elements))
+    twist = data.draw(hostile_arrays(np.float64, 6, elements=elements))
     try:
         m = ibvs.JointMapping(n, bMc, frame=frame, mounting="eye_to_hand")
         r = m.update(twist, J, bMe=bMe)
     except (ValueError, TypeError) as e:
         assert refused_by_name(e, "bMc", "bMe", "twist", "jacobian"), e
-        assert hostile or not (rigid(bMc) and rigid(bMe)), ("refused within the documented limits", e)
+        poisoned = not (np.isfinite(J).all() and np.isfinite(twist).all() and np.abs(J).max() < 1e100
+                        and np.abs(twist).max() < 1e100)  # hostile_arrays put a NaN, inf or 1e200+ in
+        assert hostile or poisoned or not (rigid(bMc) and rigid(bMe)), ("refused within the documented limits", e)
         return
     assert np.isfinite(r.qdot).all() and np.isfinite(r.camera_jacobian).all()
 
@@ -69,7 +71,7 @@ OPTION = st.one_of(st.sampled_from([0.1, 0.3, 0.7, 0.0, -1.0, 0.5, 1.0, 2.0, mat
        OPTION, OPTION, st.integers(1, 12), st.data(), st.booleans())
 def test_secondary_task_finite_or_refused(n, projector, limits, rho, rho1, speed, accel, period, m, data, hostile):
     elements = ENTRY if hostile else MODERATE
-    vec = lambda size: data.draw(hnp.arrays(np.float64, size, elements=elements))  # noqa: E731
+    vec = lambda size: data.draw(hostile_arrays(np.float64, size, elements=elements))  # noqa: E731
     kwargs = {k: v for k, v in dict(rho=rho, rho1=rho1, max_joint_speed=speed, max_joint_acceleration=accel,
                                     period=period).items() if v is not None}
     if limits:

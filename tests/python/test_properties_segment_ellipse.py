@@ -12,7 +12,7 @@ from hypothesis.extra import numpy as hnp
 
 import ibvs
 
-from test_properties import COORD, DEPTH, finite
+from test_properties import COORD, DEPTH, finite, hostile_arrays
 from test_properties_more import ENTRY, assert_finite_episode, refused_by_name
 
 # Measurement entries: anything near the limits or beyond them ...
@@ -43,7 +43,7 @@ def plausible(draw, kind):
 
 SEGMENT = st.one_of(plausible("segment"), ANY_SEGMENT)
 ELLIPSE = st.one_of(plausible("ellipse"), ANY_ELLIPSE)
-VEC3 = hnp.arrays(np.float64, 3, elements=st.one_of(st.floats(-2.0, 5.0), ENTRY))
+VEC3 = hostile_arrays(np.float64, 3, elements=st.one_of(st.floats(-2.0, 5.0), ENTRY))
 # A circle's centre in front of the camera, or anything.
 CENTRE = st.one_of(st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(0.3, 5.0)).map(np.array), VEC3)
 
@@ -86,7 +86,7 @@ def test_ellipse_measurements_finite_or_refused(m, md, weight):
     assert n20 * n02 - n11 * n11 > 0  # accepted: an ellipse of positive area
 
 
-@given(hnp.arrays(np.float64, 2, elements=COORD), hnp.arrays(np.float64, 2, elements=COORD), DEPTH, DEPTH,
+@given(hostile_arrays(np.float64, 2, elements=COORD), hostile_arrays(np.float64, 2, elements=COORD), DEPTH, DEPTH,
        VEC3, VEC3)
 def test_segment_measure_and_project_finite_or_refused(p1, p2, z1, z2, P1, P2):
     for call, names in [(lambda: ibvs.SegmentFeature.measure(p1, p2, z1, z2), ("p1", "p2", "Z1", "Z2")),
@@ -109,8 +109,8 @@ def test_project_circle_finite_or_refused(centre, normal, radius):
     assert finite(m) and block_accepts(ibvs.EllipseFeature(), m)
 
 
-@given(hnp.arrays(np.float64, 6, elements=st.one_of(st.floats(-1e3, 1e5), ENTRY)),
-       hnp.arrays(np.float64, 3, elements=st.one_of(st.floats(-2, 2), ENTRY)), st.booleans())
+@given(hostile_arrays(np.float64, 6, elements=st.one_of(st.floats(-1e3, 1e5), ENTRY)),
+       hostile_arrays(np.float64, 3, elements=st.one_of(st.floats(-2, 2), ENTRY)), st.booleans())
 def test_measure_moments_finite_or_refused(moments, plane, pixels):
     camera = ibvs.CameraModel(600.0, 600.0, 320.0, 240.0) if pixels else None
     try:
@@ -132,7 +132,7 @@ def _rim_target(n=8, radius=0.3):
 
 @settings(max_examples=60, deadline=None)
 @given(st.sampled_from(["segment", "circle"]), st.integers(-2, 5), st.integers(-2, 5),
-       hnp.arrays(np.float64, 3, elements=st.one_of(st.floats(-0.3, 0.3), ENTRY)),
+       hostile_arrays(np.float64, 3, elements=st.one_of(st.floats(-0.3, 0.3), ENTRY)),
        hnp.arrays(np.float64, 3, elements=st.one_of(st.sampled_from([0.0, 1.0]), ENTRY)),
        st.one_of(st.floats(-0.5, 0.5), ENTRY), hnp.arrays(np.float64, 6, elements=st.floats(-1.0, 1.0)),
        st.sampled_from(["exact", "pose", "estimated", "desired"]))

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import ibvs
+from test_properties import hostile_arrays
 
 from test_properties_more import ENTRY
 
@@ -32,7 +33,7 @@ def camera(kind, xi, d):
 
 @settings(max_examples=150, deadline=None)
 @given(st.sampled_from(["omnidir", "fisheye"]), st.one_of(st.floats(0.0, 3.0), ENTRY), st.lists(COEF, min_size=4, max_size=4),
-       hnp.arrays(np.float64, (3, 2), elements=PIXEL), hnp.arrays(np.float64, (3, 3), elements=ENTRY))
+       hostile_arrays(np.float64, (3, 2), elements=PIXEL), hostile_arrays(np.float64, (3, 3), elements=ENTRY))
 def test_bearings_finite_or_refused(kind, xi, d, px, b):
     try:
         cam = camera(kind, xi, d)
@@ -56,7 +57,7 @@ def test_bearings_finite_or_refused(kind, xi, d, px, b):
 
 
 @settings(max_examples=150, deadline=None)
-@given(hnp.arrays(np.float64, 4, elements=ENTRY), hnp.arrays(np.float64, 4, elements=ENTRY),
+@given(hostile_arrays(np.float64, 4, elements=ENTRY), hostile_arrays(np.float64, 4, elements=ENTRY),
        st.sampled_from([ibvs.SphericalPointFeature(), ibvs.SphericalPolarFeature()]), st.booleans())
 def test_spherical_blocks_finite_or_refused(m, md, f, unit):
     if unit:  # a valid bearing most of the time: the evaluation itself is exercised
@@ -77,7 +78,7 @@ def test_spherical_blocks_finite_or_refused(m, md, f, unit):
 
 
 @settings(max_examples=80, deadline=None)
-@given(hnp.arrays(np.float64, (2, 2), elements=PIXEL), hnp.arrays(np.float64, 2, elements=ENTRY))
+@given(hostile_arrays(np.float64, (2, 2), elements=PIXEL), hostile_arrays(np.float64, 2, elements=ENTRY))
 def test_spherical_measurements_finite_or_refused(px, R):
     cam = camera("fisheye", 0.0, [-0.013, 0.02, -0.012, 0.002])
     try:
@@ -91,7 +92,7 @@ def test_spherical_measurements_finite_or_refused(px, R):
 @given(hnp.arrays(np.float64, 3, elements=st.floats(-4.0, 4.0)),
        hnp.arrays(np.float64, 3, elements=st.floats(-3.0, 3.0)),
        st.sampled_from(["cartesian", "polar_per_point", "spherical", "spherical_stacked"]),
-       hnp.arrays(np.float64, (4, 4), elements=ENTRY))
+       hostile_arrays(np.float64, (4, 4), elements=ENTRY))
 def test_wide_study_runs_finite_or_refused(rotation, translation, scheme, junk):
     """ibvs.study.wide.run: any rigid start ends in one of its outcomes with finite metrics; a start that is
     not a finite rigid transform is refused, naming it."""

@@ -3,6 +3,7 @@
 #include "moments_goal.hpp"
 
 #include "ibvs/angle_wrap.hpp"
+#include "ibvs/finite.hpp"
 #include "ibvs/limits.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -252,7 +253,7 @@ std::array<double, 20> MomentsFeature::project(const Eigen::Ref<const Eigen::Mat
   const Eigen::Index n = P.cols();
   if (n < 3) throw std::invalid_argument("ibvs: moments: project needs at least 3 points");
   if (!P.allFinite()) throw std::invalid_argument("ibvs: moments: the points must be finite");
-  if (!(P.row(2).minCoeff() >= min_depth))
+  if (!(P.row(2).array() >= min_depth).all())
     throw std::invalid_argument("ibvs: moments: every point must be in front of the camera (Z >= min_depth)");
   // The plane n . X = d through the points: the scatter's eigenvector of least eigenvalue.
   const Eigen::Vector3d c = P.rowwise().mean();
@@ -318,7 +319,7 @@ const char* check_evaluation(const Evaluation& ev, unsigned rows, MomentsFeature
   if ((rows & Row::alpha) && alpha == MomentsFeature::Alpha::third_order && !(std::abs(ev.third) >= 1e-9))
     return "the third-order orientation is undefined (a centrally symmetric object: use Alpha::second_order)";
   for (unsigned b = 0; b < 6; ++b)
-    if (((rows >> b) & 1u) && (!(std::abs(ev.s[b].v) <= max_entry) || !(ev.s[b].d.cwiseAbs().maxCoeff() <= max_entry)))
+    if (((rows >> b) & 1u) && (!finite_within(ev.s[b].v, max_entry) || !finite_within(ev.s[b].d, max_entry)))
       return "gives values or interaction entries beyond 1e20 (not the moments of an object)";
   return nullptr;
 }

@@ -1,6 +1,7 @@
 #include "ibvs/features/pose.hpp"
 
 #include "ibvs/features.hpp"
+#include "ibvs/finite.hpp"
 #include "ibvs/limits.hpp"
 
 #include <Eigen/Geometry>
@@ -84,7 +85,7 @@ const char* check_finite(const double* m, int n, int& entry) noexcept {
 void check_pose(const Pose& T, const char* name) {
   if (!T.allFinite()) throw std::invalid_argument(std::string("ibvs: ") + name + " must be finite");
   const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
-  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6 || R.determinant() <= 0.0)
+  if (!finite_within(R.transpose() * R - Eigen::Matrix3d::Identity(), 1e-6) || !(R.determinant() > 0.0))
     throw std::invalid_argument(std::string("ibvs: ") + name + "'s upper-left 3x3 block must be a rotation (to 1e-6)");
   if (T.row(3).cwiseAbs().sum() != 1.0 || T(3, 3) != 1.0)
     throw std::invalid_argument(std::string("ibvs: ") + name + "'s last row must be (0, 0, 0, 1)");

@@ -141,8 +141,9 @@ bool MomentsSource::fits(const Feature& f) const noexcept {
 
 void MomentsSource::validate(const Eigen::Matrix3Xd& points, const std::string& name) const {
   if (points.cols() < 3) throw std::invalid_argument("ibvs: " + name + ": moments need at least 3 target points");
-  const double scale = std::max(1.0, points.cwiseAbs().maxCoeff());
-  if (points.row(2).cwiseAbs().maxCoeff() > 1e-12 * scale)
+  if (!points.allFinite()) throw std::invalid_argument("ibvs: " + name + ": the target's points must be finite");
+  const double scale = std::max(1.0, largest_magnitude(points));
+  if (!finite_within(points.row(2), 1e-12 * scale))
     throw std::invalid_argument("ibvs: " + name + ": the target's points must be in its z = 0 plane (a planar object)");
 }
 
@@ -170,7 +171,7 @@ bool PbvsSource::fits(const Feature& f) const noexcept {
 /// PbvsFeature::measure asks (checked here so that measure() need not throw).
 static bool rigid(const Pose& T) noexcept {
   const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
-  return T.allFinite() && (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 &&
+  return T.allFinite() && finite_within(R.transpose() * R - Eigen::Matrix3d::Identity(), 1e-6) &&
          R.determinant() > 0.0 && T(3, 0) == 0.0 && T(3, 1) == 0.0 && T(3, 2) == 0.0 && T(3, 3) == 1.0;
 }
 

@@ -256,7 +256,7 @@ def calibrate_hand_eye(robot_poses, target_poses, mount: str = "eye_in_hand", me
     P = bMe if mount == "eye_in_hand" else invert(bMe)
     RA, RB = _motions(P, cMo)
     angles_a = rotation_angle(RA)
-    if angles_a.max() <= min_rotation:
+    if not (angles_a > min_rotation).any():  # NaN angles count as no rotation
         raise ValueError(f"robot_poses: the motions are pure translations (no two stations differ in rotation by "
                          f"more than {math.degrees(angles_a.max()):.3g} deg, min_rotation is "
                          f"{math.degrees(min_rotation):.3g} deg): the hand-eye rotation cannot be found")

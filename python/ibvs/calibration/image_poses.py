@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from ..finite import finite_within
+
 from .._core import CameraModel, PlanarPose
 
 __all__ = ["tag_points", "target_pose", "target_poses"]
@@ -40,9 +42,9 @@ def _points(points) -> np.ndarray:
         raise TypeError(f"points must hold real numbers, got {p.dtype}")
     if p.ndim != 2 or p.shape[1] != 3 or len(p) < 4:
         raise ValueError(f"points must have shape (N, 3) with N >= 4 (the target's points, metres), got {p.shape}")
-    if not np.isfinite(p).all() or np.abs(p).max() > 1e3:
+    if not finite_within(p, 1e3):
         raise ValueError("points must be finite, within 1000 m")
-    if np.abs(p[:, 2]).max() > 1e-9:
+    if not finite_within(p[:, 2], 1e-9):
         raise ValueError("points must lie in the target's z = 0 plane (a planar target)")
     return p.astype(float)
 

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from ..finite import finite_within
+
 __all__ = [
     "MAX_TRANSLATION",
     "ORTHONORMAL_TOLERANCE",
@@ -47,12 +49,12 @@ def as_pose_stack(poses, name: str, min_count: int = 0) -> np.ndarray:
         if not np.isfinite(T).all():
             raise ValueError(f"{name}[{i}] is not finite")
         R = T[:3, :3]
-        if np.abs(T[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-9:
+        if not finite_within(T[3] - (0.0, 0.0, 0.0, 1.0), 1e-9):
             raise ValueError(f"{name}[{i}] is not a rigid transform: its last row must be (0, 0, 0, 1)")
-        if np.abs(R @ R.T - np.eye(3)).max() > ORTHONORMAL_TOLERANCE or np.linalg.det(R) <= 0:
+        if not finite_within(R @ R.T - np.eye(3), ORTHONORMAL_TOLERANCE) or not np.linalg.det(R) > 0:
             raise ValueError(f"{name}[{i}] is not a rigid transform: its rotation must be orthonormal with det +1 "
                              f"(within {ORTHONORMAL_TOLERANCE:g})")
-        if np.abs(T[:3, 3]).max() > MAX_TRANSLATION:
+        if not finite_within(T[:3, 3], MAX_TRANSLATION):
             raise ValueError(f"{name}[{i}]: translation beyond {MAX_TRANSLATION:g} m")
         U, _, Vt = np.linalg.svd(R)  # the nearest rotation (det +1 holds: R is within 1e-6 of one)
         a[i, :3, :3] = U @ Vt

@@ -1,7 +1,14 @@
 """Command-line argument checks: every bad argument is refused by the parser, before any work,
 with exit status 2 and one line naming the option (`ibvs run: error: argument --duration: ...`);
-every output path is tried for writing there (out_file, out_dir); and the options that several
-commands share (their help texts, --angle-wrap, --tolerance-px)."""
+every output path is tried for writing there; and the options that several commands share (their
+help texts, --angle-wrap, --tolerance-px).
+
+Output paths: every option of every command that names a file or directory to write is registered
+with add_output(parser, "--flag", out_file(".csv") | out_dir | figure_file | animation_file, ...).
+The parser then tries the path for writing before any work (one line naming the path and the reason,
+exit status 2). tests/python/test_cli_outputs.py walks every command's parser (main.command_parsers)
+and fails for an option that writes a path without add_output, and tries each registered one with
+paths that cannot be written."""
 
 from __future__ import annotations
 
@@ -13,11 +20,53 @@ from pathlib import Path
 from typing import NoReturn
 
 
+class _Formatter(argparse.HelpFormatter):
+    """argparse's formatter, except that the exit-status table (exit_status()) keeps its lines."""
+
+    def _fill_text(self, text, width, indent):
+        if text.startswith(EXIT_STATUS_TITLE):
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
 class Parser(argparse.ArgumentParser):
     """An ArgumentParser whose errors are one line (no usage block): prog: error: message."""
 
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _Formatter)
+        super().__init__(*args, **kwargs)
+
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+# --------------------------------------------------------------------------- exit status
+
+EXIT_STATUS_TITLE = "exit status:"
+#: Exit statuses of every command (`ibvs` main turns an uncaught exception into 3, Ctrl-C into 130, SIGTERM
+#: into 143); 0 and 1 are each command's own (exit_status()).
+EXIT_2 = ("a bad argument, a missing optional extra, an output path that cannot be written, or a results file "
+          "another process is writing: one line on stderr, before any work")
+EXIT_3 = "an internal error (a bug): a traceback, then one line; please report it"
+EXIT_130 = "interrupted (Ctrl-C, SIGINT)"
+EXIT_143 = "terminated (SIGTERM)"
+EXIT_141 = "the reader of the output went away (`ibvs ... | head -1`): quietly"
+
+
+def exit_status(zero: str, one: str | None = None, interrupted: str = "") -> str:
+    """The --help epilog of a command's exit statuses: `zero` and `one` (None: the command never
+    exits 1) say what 0 and 1 mean for it; `interrupted` is added to 130 and 143."""
+    import textwrap
+
+    rows = [("0", zero)] + ([("1", one)] if one else []) + [
+        ("2", EXIT_2), ("3", EXIT_3), ("130", EXIT_130 + interrupted), ("143", EXIT_143 + interrupted),
+        ("141", EXIT_141)]
+    lines = [EXIT_STATUS_TITLE]
+    for code, text in rows:
+        wrapped = textwrap.wrap(text, 100)
+        lines.append(f"  {code:>3}  {wrapped[0]}")
+        lines += [f"       {w}" for w in wrapped[1:]]
+    return "\n".join(lines)
 
 
 def number(lo: float, hi: float, *, open_lo: bool = False, integer: bool = False):
@@ -66,6 +115,13 @@ def _cannot_write_into(d: Path):
     return None
 
 
+def _output_type(parse, example: str):
+    """Mark an argparse type as an output path's (add_output accepts only these); `example` is a name
+    it accepts (the tests build bad paths from it)."""
+    parse.output_example = example
+    return parse
+
+
 def out_file(*suffixes: str):
     """argparse type: a file this process can write (an existing writable file, or a new one in an
     existing writable directory), not a directory, ending in one of `suffixes` if given."""
@@ -87,7 +143,7 @@ def out_file(*suffixes: str):
         return p
 
     parse.__name__ = "file"
-    return parse
+    return _output_type(parse, "out" + (suffixes[0] if suffixes else ".txt"))
 
 
 def out_dir(text: str) -> Path:
@@ -104,6 +160,9 @@ def out_dir(text: str) -> Path:
     if why is not None:
         raise argparse.ArgumentTypeError(f"cannot write into {str(existing.absolute())!r} ({why})")
     return p
+
+
+_output_type(out_dir, "out")
 
 
 def in_file(text: str) -> Path:
@@ -125,6 +184,9 @@ def figure_file(text: str) -> Path:
     return out_file(*(f".{k}" for k in kinds))(text)
 
 
+_output_type(figure_file, "out.png")
+
+
 def animation_file(text: str) -> Path:
     """argparse type: out_file() ending in .gif or .mp4 (MP4 needs imageio-ffmpeg)."""
     p = out_file(".gif", ".mp4")(text)
@@ -140,6 +202,27 @@ def animation_file(text: str) -> Path:
     except (ImportError, ValueError) as e:
         raise argparse.ArgumentTypeError(str(e)) from None
     return p
+
+
+_output_type(animation_file, "out.gif")
+
+
+def add_output(parser, *flags: str, type, **kwargs) -> argparse.Action:
+    """Add an option naming a path the command writes (--out, --plot, --record, --log, ...): `type` is one of
+    the output types (out_file(*suffixes), out_dir, figure_file, animation_file), which try the path for
+    writing when the arguments are parsed, before any work. Every output option of every command goes
+    through here (test_cli_outputs.py checks it); kwargs are add_argument's (help, metavar, default...)."""
+    if not hasattr(type, "output_example"):
+        raise TypeError(f"add_output {flags}: type must be an output type of ibvs.cli.args (out_file(...), out_dir, "
+                        f"figure_file, animation_file), got {type!r}")
+    action = parser.add_argument(*flags, type=type, **kwargs)
+    action.output = True
+    return action
+
+
+def is_output(action: argparse.Action) -> bool:
+    """Whether an option was registered with add_output."""
+    return getattr(action, "output", False) is True
 
 
 def say(prog: str, message) -> None:
@@ -180,13 +263,19 @@ def missing_extra(error: ImportError) -> str | None:
 
 
 def require(prog: str, module: str, what: str) -> None:
-    """Exit 2 with one line (missing_extra's) unless `module` can be imported; `what` needs it."""
+    """Exit 2 with one line unless `module` can be imported: `what` (e.g. "drawing the figures") needs it,
+    which extra installs it and how: `ibvs reproduce: error: drawing the figures needs matplotlib, which is
+    not installed (the plot extra): pip install ...`."""
     import importlib
 
     try:
         importlib.import_module(module)
     except ImportError as e:
-        fail(prog, f"{what} needs {missing_extra(e) or e}")
+        top = (e.name or module).split(".")[0]
+        if top in EXTRAS:
+            fail(prog, f"{what} needs {top}, which is not installed (the {EXTRAS[top]} extra): "
+                       f"{install_line(EXTRAS[top])}")
+        fail(prog, f"{what} needs {module}: {e}")
 
 
 # --------------------------------------------------------------------------- options of several commands

@@ -11,11 +11,13 @@
     ibvs --cmake-dir                              where ibvsConfig.cmake is, for find_package(ibvs)
 
 Every bad argument exits with status 2 and one line before any work starts (so does a missing optional
-extra, naming it, and `ibvs` without a command, after its usage); every output path
-(--out, --plot, --animate, --video, --figure, --record, --rerun, --bag-out, --log) is tried for writing then. An interrupted sweep
-(Ctrl-C, SIGTERM) stops its workers, keeps every finished row and says how to resume, as does a
-sweep whose Dask scheduler dies (exit status 1). Output into a closed pipe (`ibvs ... | head -1`) ends
-the command quietly with status 141.
+extra, naming it, and `ibvs` without a command, after its usage); every output path is registered with
+args.add_output and tried for writing then (test_cli_outputs.py walks every command's parser to check it). A
+sweep locks its CSV (ibvs.writer_lock): a second writer gets one line naming the holder's pid and status 2. An
+interrupted command (Ctrl-C: 130, SIGTERM: 143) says so in one line; a sweep keeps every finished row and says how
+to resume, as does a sweep whose Dask scheduler dies (exit status 1). An internal error (a bug) prints its
+traceback and one line, status 3. Output into a closed pipe (`ibvs ... | head -1`) ends the command quietly with
+status 141. Each command's --help ends with what its statuses mean (args.exit_status).
 
 Modules: args (argument types, options shared by commands), run (`ibvs run`), sweep (`ibvs
 sweep`), replay (`ibvs replay`); `ibvs reproduce` and `ibvs bench` hand over to ibvs.study.reproduce and ibvs.bench.
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 import ibvs
@@ -42,8 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("reproduce", help="run every experiment of the paper; write figures and a summary",
                        description="Run every experiment of the paper (Figs. 1-8), write PNG figures, summary.md and "
-                                   "summary.csv, and print the summary table.")
-    r.add_argument("--out", type=a.out_dir, default="ibvs-results",  # a string: checked by out_dir too
+                                   "summary.csv, and print the summary table.",
+                       epilog=a.exit_status("every experiment ran; the figures and the summary are written"))
+    a.add_output(r, "--out", type=a.out_dir, default="ibvs-results",  # a string: checked by out_dir too
                    help="output directory (default ./ibvs-results; created if missing)")
     r.add_argument("--quick", action="store_true", help="small, fast figures (for CI); the simulations are the same")
     a.add_angle_wrap(r, "consistent")
@@ -58,9 +62,29 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("wide", help="a 220-degree fisheye servoed on perspective and on spherical features "
                                 "(python -m ibvs.study.wide --help)", add_help=False)
     b = sub.add_parser("bench", help="time the control step through the bindings next to numpy",
-                       description="Time the control step through the bindings next to a numpy reference.")
+                       description="Time the control step through the bindings next to a numpy reference.",
+                       epilog=a.exit_status("timed; the table (or the JSON line) printed"))
     b.add_argument("args", nargs="*", help="options of python -m ibvs.bench (see python -m ibvs.bench --help)")
     return p
+
+
+#: The commands whose options another module parses (`ibvs CMD ...` hands over to module.main), and
+#: the module whose build_parser() makes that parser.
+HANDED_OVER = {"compare": "ibvs.study.compare", "wide": "ibvs.study.wide", "bench": "ibvs.bench"}
+
+
+def command_parsers() -> dict[str, argparse.ArgumentParser]:
+    """Every command's full parser, by name (those handed over included): what the tests walk to find
+    every option (every output path must be registered with args.add_output)."""
+    import importlib
+
+    top = build_parser()
+    sub = next(x for x in top._actions if isinstance(x, argparse._SubParsersAction))
+    parsers = dict(sub.choices)
+    for name, module in HANDED_OVER.items():
+        mod = importlib.import_module(module)
+        parsers[name] = mod.build_parser("ibvs bench") if name == "bench" else mod.build_parser()
+    return parsers
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -69,8 +93,18 @@ def main(argv: list[str] | None = None) -> int:
     A command that needs an optional extra which is not installed says which (one line, status 2); a reader
     that stops reading (`ibvs ... | head -1`) ends the command quietly with status 141, as SIGPIPE would."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    command = argv[0] if argv[:1] and argv[0] in COMMANDS else ""
+    prog = f"ibvs {command}".strip()
+    try:  # SIGTERM as Ctrl-C, so that every command unwinds (closing its files) and exits 143
+        old = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave the signals alone
+        old = None
     try:
         return _main(argv)
+    except KeyboardInterrupt as e:
+        terminated = isinstance(e, Terminated)
+        a.say(prog, "terminated (SIGTERM)" if terminated else "interrupted")
+        return 143 if terminated else 130
     except BrokenPipeError:
         # Nothing more can be written: send what Python would still flush to /dev/null, and say nothing.
         devnull = os.open(os.devnull, os.O_WRONLY)
@@ -81,13 +115,29 @@ def main(argv: list[str] | None = None) -> int:
         message = a.missing_extra(e)
         if message is None:
             raise
-        command = argv[0] if argv[:1] and argv[0] in COMMANDS else ""
-        a.say(f"ibvs {command}".strip(), message)
+        a.say(prog, message)
         return 2
+    except Exception:  # a bug: its traceback, then one line, and a status of its own (1 is a result for some)
+        import traceback
+
+        traceback.print_exc()
+        a.say(prog, "internal error (the traceback above): please report it")
+        return 3
+    finally:
+        if old is not None:
+            signal.signal(signal.SIGTERM, old)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that a command stops as on Ctrl-C (exit status 143)."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
 
 
 #: The commands of the parser.
-COMMANDS = ("reproduce", "run", "sweep", "replay", "servo", "bench")
+COMMANDS = ("reproduce", "run", "sweep", "replay", "compare", "wide", "servo", "bench")
 
 
 def _main(argv: list[str]) -> int:
@@ -95,7 +145,7 @@ def _main(argv: list[str]) -> int:
         # Every option after `bench` belongs to python -m ibvs.bench (argparse's REMAINDER drops `--x`).
         from .. import bench
 
-        return bench.main(argv[1:])
+        return bench.main(argv[1:], prog="ibvs bench")
     if argv[:1] == ["compare"]:
         from ..study import compare
 
@@ -110,7 +160,7 @@ def _main(argv: list[str]) -> int:
         print(ibvs.cmake_dir())
         return 0
     if args.command == "reproduce":
-        a.require("ibvs reproduce", "matplotlib", "ibvs reproduce draws figures:")
+        a.require("ibvs reproduce", "matplotlib", "drawing the figures")
         from ..study.reproduce import reproduce
 
         reproduce(args.out, quick=args.quick, angle_wrap=args.angle_wrap)

@@ -30,7 +30,9 @@ def add_parser(sub) -> None:
                        description="Run a tracker (dots or tag) and the servo over a ROS 2 bag's images and write "
                                    "the twists it would have commanded. A bag recorded by ibvs (ibvs run --record) "
                                    "holds everything needed in /ibvs/config; a real robot's bag needs --tracker, "
-                                   "--scheme, --desired-pixels, --depth-desired (and --initial-pixels for dots).")
+                                   "--scheme, --desired-pixels, --depth-desired (and --initial-pixels for dots).",
+                       epilog=a.exit_status("every image was replayed; the twists are written",
+                                            "the features were lost on the way (the twists up to there are written)"))
     r.add_argument("bag", type=bag_path, metavar="BAG", help="a rosbag2 directory or an .mcap file")
     r.add_argument("--image-topic", default="/camera/image_raw", metavar="T", help="sensor_msgs/Image topic "
                    "(default /camera/image_raw)")
@@ -54,9 +56,9 @@ def add_parser(sub) -> None:
                    help="the dots' pixels in the first image (dot tracker; default: the recorded start)")
     r.add_argument("--desired-pixels", type=numbers(None, "pixels U1,V1,U2,V2,...", 1e5), metavar="U1,V1,...",
                    help="the goal's pixels (default: tracked in the goal image, else /ibvs/features_desired)")
-    r.add_argument("--out", type=a.out_file(".csv"), required=True, metavar="FILE.csv",
+    a.add_output(r, "--out", type=a.out_file(".csv"), required=True, metavar="FILE.csv",
                    help="the twists, one row per image (frame, stamp, pixels, twist, status)")
-    r.add_argument("--bag-out", type=a.out_file(".mcap"), metavar="FILE.mcap",
+    a.add_output(r, "--bag-out", type=a.out_file(".mcap"), metavar="FILE.mcap",
                    help="a copy of the bag with the twists added on /ibvs/replay/cmd_twist")
 
 

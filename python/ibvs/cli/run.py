@@ -24,7 +24,10 @@ def add_parser(sub) -> None:
     cases = sorted({c for w in CASES.values() for c in w})
     one = sub.add_parser("run", help="simulate one episode and print its status and metrics",
                          description="Simulate one episode and print its status and metrics; draw it (--plot) or "
-                                     "animate it (--animate).")
+                                     "animate it (--animate).",
+                         epilog=a.exit_status("the episode converged",
+                                              "the episode ran correctly but did not converge (its outcome is printed: "
+                                              "timeout, lost_feature, ...): a result, not an error"))
     one.add_argument("--world", choices=sorted(CASES), default="free",
                      help="free-flying camera, the gantry, or an arm (--robot)")
     arm.add_options(one)
@@ -37,21 +40,21 @@ def add_parser(sub) -> None:
                           + ")")
     one.add_argument("--rotation-deg", type=a.number(-360, 360), metavar="DEG",
                      help="angle of the z-rotation case about the optical axis, in degrees (default 180)")
-    one.add_argument("--plot", type=a.figure_file, metavar="FILE", help="save the episode's figure (PNG, PDF, SVG)")
-    one.add_argument("--animate", type=a.animation_file, metavar="FILE",
+    a.add_output(one, "--plot", type=a.figure_file, metavar="FILE", help="save the episode's figure (PNG, PDF, SVG)")
+    a.add_output(one, "--animate", type=a.animation_file, metavar="FILE",
                      help="write an animation: camera view and 3D scene (.gif, or .mp4 with imageio-ffmpeg)")
     one.add_argument("--vision", choices=["dots", "tag", "klt", "keypoints"],
                      help="close the loop through rendered images: white dots (tracked), an AprilTag 36h11 "
                           "(cv2.aruco), or a textured plate whose corners KLT or keypoints find (the schemes klt "
                           "and keypoints use these); a normalised camera becomes 640x480 with f = 800 px "
                           "(needs the vision extra)")
-    one.add_argument("--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
+    a.add_output(one, "--video", type=a.out_file(".mp4", ".gif"), metavar="FILE",
                      help="with --vision: the camera frames with detected (green) and desired (red) points, "
                           ".mp4 (imageio-ffmpeg; else a GIF, with a message) or .gif")
-    one.add_argument("--record", type=a.out_file(".mcap"), metavar="FILE.mcap",
+    a.add_output(one, "--record", type=a.out_file(".mcap"), metavar="FILE.mcap",
                      help="also write the episode as a ROS 2 bag, one MCAP file (topics in docs/ros.md; needs the ros "
                           "extra)")
-    one.add_argument("--rerun", type=a.out_file(".rrd"), metavar="FILE.rrd",
+    a.add_output(one, "--rerun", type=a.out_file(".rrd"), metavar="FILE.rrd",
                      help="also log the episode to a Rerun recording (needs the rerun extra)")
     one.add_argument("--speed", type=a.number(0, 1000, open_lo=True), default=1.0,
                      help="animation speed: simulated seconds per second of video (default 1, real time)")

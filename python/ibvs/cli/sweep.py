@@ -58,8 +58,11 @@ def add_parser(sub) -> None:
                        description="Run a sweep of episodes (every scheme from the same starts) of a built-in world "
                                    "or of your own scenario file, append one row per episode to a CSV (re-running "
                                    "with the same file resumes), print the aggregate table per scheme and rotation "
-                                   "bin. Ctrl-C stops it; the rows so far are kept.")
-    w.add_argument("--out", type=a.out_file(), required=True, help="CSV file of the rows (appended; resumable)")
+                                   "bin. Ctrl-C stops it; the rows so far are kept.",
+                       epilog=a.exit_status("every episode ran; the table is printed",
+                                            "the Dask scheduler was lost: the finished rows are kept, the same command "
+                                            "resumes", interrupted=": the finished rows are kept, the same command resumes"))
+    a.add_output(w, "--out", type=a.out_file(), required=True, help="CSV file of the rows (appended; resumable)")
     where = w.add_mutually_exclusive_group()
     where.add_argument("--scenario", type=a.in_file, metavar="FILE.toml",
                        help="your scenario: camera, target, goal, robot, start distribution, control (docs/sweeps.md)")
@@ -94,7 +97,7 @@ def add_parser(sub) -> None:
     w.add_argument("--scheduler", metavar="ADDRESS",
                    help='Dask scheduler address, e.g. tcp://127.0.0.1:8786 (pip install ".[distributed]"; '
                         "docs/sweeps.md)")
-    w.add_argument("--figure", type=a.figure_file, metavar="FILE",
+    a.add_output(w, "--figure", type=a.figure_file, metavar="FILE",
                    help="figure: every outcome's rate, median retreat, path and peak twist against rotation")
     w.add_argument("--bin-width", type=a.number(0.1, 360), default=30.0, metavar="DEG",
                    help="rotation bin width in degrees (0.1 to 360; default 30)")
@@ -124,6 +127,7 @@ def command(args) -> int:
     """Run `ibvs sweep`; the exit status (130 on Ctrl-C, 143 on SIGTERM, 1 when the Dask scheduler is lost)."""
     from ..study import sweep as sw
     from ..study.schemes import points_only
+    from ..writer_lock import WriterBusy
 
     prog = "ibvs sweep"
     if args.range and args.grid:
@@ -155,8 +159,8 @@ def command(args) -> int:
         a.say(prog, f"{e}: {_saved(args.out, spec)} saved in {args.out}; start a scheduler (and its workers) and "
                     f"run the same command again to resume")
         return 1
-    except (ValueError, TypeError, ConnectionError, ImportError) as e:
-        a.fail(prog, e)
+    except (ValueError, TypeError, ConnectionError, ImportError, WriterBusy) as e:
+        a.fail(prog, e)  # WriterBusy: another process writes --out (ibvs.writer_lock); nothing was written
     finally:
         if signal.getsignal(signal.SIGTERM) is _on_sigterm:
             signal.signal(signal.SIGTERM, old)

@@ -24,6 +24,8 @@ from typing import Optional
 
 import numpy as np
 
+from ..finite import finite_within
+
 from .._core import CameraModel
 from .._core import sim as _sim
 from ..calibration.hand_eye import DEFAULT_METHOD, MOUNTS, calibrate_hand_eye
@@ -210,7 +212,7 @@ def collect_hand_eye(robot, camera, target, stations=12, noise_px: float = 0.0, 
     if not isinstance(target, _sim.Target):
         raise TypeError(f"target must be an ibvs.sim.Target, got {type(target).__name__}")
     points = np.asarray(target.points, dtype=float)
-    if len(points) < 4 or np.abs(points[:, 2]).max() > 1e-9:
+    if len(points) < 4 or not finite_within(points[:, 2], 1e-9):
         raise ValueError("target must have at least 4 points, all in its z = 0 plane (a planar target)")
     if mount not in MOUNTS:
         raise ValueError(f"mount must be one of {MOUNTS}, got {mount!r}")

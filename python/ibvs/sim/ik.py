@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..finite import finite_within
+
 from .._core import sim as _sim
 
 __all__ = ["IKResult", "MAX_TRANSLATION", "rotation_vector", "solve_ik", "solve_joints"]
@@ -121,11 +123,12 @@ def _check(robot, camera_pose, q0, tolerance, max_iterations, restarts, seed, ma
     if T.shape != (4, 4) or not np.isfinite(T).all():
         raise ValueError(f"camera_pose must be a finite 4x4 pose (world <- camera), got shape {T.shape}")
     R = T[:3, :3]
-    if np.abs(R).max() > 1 + 1e-6 or np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0 \
+    if not finite_within(R, 1 + 1e-6) or not finite_within(R @ R.T - np.eye(3), 1e-6) \
+            or np.linalg.det(R) < 0 \
             or np.any(T[3] != (0, 0, 0, 1)):
         raise ValueError("camera_pose must be a rigid transform: an orthonormal rotation (det +1) and last row "
                          "(0, 0, 0, 1)")
-    if np.abs(T[:3, 3]).max() > MAX_TRANSLATION:
+    if not finite_within(T[:3, 3], MAX_TRANSLATION):
         raise ValueError(f"camera_pose: translation beyond {MAX_TRANSLATION:g} m")
     lo, hi = np.asarray(robot.q_min, dtype=float), np.asarray(robot.q_max, dtype=float)
     if q0 is None:

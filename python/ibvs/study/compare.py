@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import textwrap
 
-import argparse
 import math
 import time
 from dataclasses import dataclass
@@ -558,19 +557,29 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
     return wrap("\n".join(parts))
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    """`ibvs compare`: run the study, write compare.csv, compare.md and the figures (and docs/ with --docs)."""
-    p = argparse.ArgumentParser(prog="ibvs compare", description="Compare IBVS, IBVS-P, stacked, cylindrical, "
-                                "partitioned, image moments, 2.5-D and both PBVS variants on the same cases.")
-    p.add_argument("--out", default="ibvs-compare", help="output directory: compare.csv, compare.md, figures")
-    p.add_argument("--rotations", type=int, default=19, help="angles about the optical axis from 0 to 180 deg (19)")
-    p.add_argument("--general", type=int, default=50, help="random general starts (50)")
-    p.add_argument("--seed", type=int, default=0)
+def build_parser():
+    """The parser of `ibvs compare` (one-line errors, exit status 2; --out tried for writing when parsed)."""
+    from ..cli import args as a
+
+    p = a.Parser(prog="ibvs compare", description="Compare IBVS, IBVS-P, stacked, cylindrical, partitioned, image "
+                 "moments, 2.5-D and both PBVS variants on the same cases.",
+                 epilog=a.exit_status("the study ran; its files are written"))
+    a.add_output(p, "--out", type=a.out_dir, default="ibvs-compare",
+                 help="output directory: compare.csv, compare.md, figures (created if missing)")
+    p.add_argument("--rotations", type=a.number(2, 181, integer=True), default=19,
+                   help="angles about the optical axis from 0 to 180 deg, 2 to 181 (19)")
+    p.add_argument("--general", type=a.number(0, 10000, integer=True), default=50,
+                   help="random general starts, 0 to 10000 (50)")
+    p.add_argument("--seed", type=a.number(0, a.SEED_MAX, integer=True), default=0)
     p.add_argument("--docs", action="store_true",
                    help="also write docs/compare.md and docs/figures/compare_*.png of this repository")
+    return p
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """`ibvs compare`: run the study, write compare.csv, compare.md and the figures (and docs/ with --docs)."""
+    p = build_parser()
     args = p.parse_args(argv)
-    if not 2 <= args.rotations <= 181 or not 0 <= args.general <= 10000:
-        p.error("--rotations must be in [2, 181] and --general in [0, 10000]")
     docs = output.docs_dir(p, args.docs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -19,6 +19,12 @@ def docs_dir(parser: argparse.ArgumentParser, docs: bool) -> Optional[Path]:
         return None
     if not (ROOT / "mkdocs.yml").is_file():
         parser.error(f"--docs: {ROOT} is not the ibvs repository (run from a source checkout)")
+    from ..cli.args import out_dir
+
+    try:  # tried for writing now, before any work, as every output path of the command line
+        out_dir(str(ROOT / "docs"))
+    except argparse.ArgumentTypeError as e:
+        parser.error(f"--docs: {e}")
     return ROOT / "docs"
 
 

@@ -27,6 +27,8 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
+from ..finite import finite_within
+
 import ibvs
 
 
@@ -111,7 +113,8 @@ def keypoints(gain: float, n_points: int = 4):
 def _planar_polygon(target, name: str):
     """Refuse a target the moments schemes cannot use, naming why."""
     P = np.asarray(target.points, dtype=float)
-    if len(P) < 3 or np.max(np.abs(P[:, 2])) > 1e-12 * max(1.0, np.max(np.abs(P))):
+    if len(P) < 3 or not finite_within(P, np.inf) \
+            or not finite_within(P[:, 2], 1e-12 * max(1.0, float(np.abs(P).max()))):
         raise ValueError(f"scheme {name}: the target must be a planar polygon (>= 3 points in its z = 0 plane)")
     return P
 

@@ -35,6 +35,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ..finite import finite_within
+
 import ibvs
 
 from .. import sim
@@ -234,8 +236,9 @@ def run(scheme: str, start: np.ndarray, cam: Optional[ibvs.CameraModel] = None, 
     if start.shape != (4, 4) or not np.isfinite(start).all():
         raise ValueError(f"start must be a finite 4x4 pose (world <- camera), got shape {start.shape}")
     R = start[:3, :3]
-    if (np.abs(R).max() > 1.0 + 1e-6 or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0
-            or np.abs(start[3] - (0, 0, 0, 1)).max() > 0 or np.abs(start[:3, 3]).max() > 1e3):
+    if (not finite_within(R, 1.0 + 1e-6) or not finite_within(R.T @ R - np.eye(3), 1e-6)
+            or np.linalg.det(R) < 0 or not finite_within(start[3] - (0, 0, 0, 1), 0.0)
+            or not finite_within(start[:3, 3], 1e3)):
         raise ValueError("start must be a rigid transform (rotation, translation within 1 km, last row 0 0 0 1)")
     if not (isinstance(duration, (int, float)) and 0 < duration <= 3600):
         raise ValueError(f"duration must be in (0, 3600] seconds, got {duration!r}")
@@ -297,7 +300,7 @@ def summarise(study: str, start: str, scheme: str, T0: np.ndarray, o: Outcome) -
     a = off_axis(P)
     reached = bool(o.final_translation_error < REACHED[0] and o.final_rotation_error < REACHED[1])
     return Row(study, start, scheme, math.degrees(off_axis(P.mean(axis=0)[None])[0]), math.degrees(a.max()),
-               cannot_see(T0), bool(a.max() > PINHOLE_HALF_FOV), o.outcome, o.outcome == "converged", reached,
+               cannot_see(T0), bool((a > PINHOLE_HALF_FOV).any()), o.outcome, o.outcome == "converged", reached,
                o.outcome not in OUT_OF_VIEW + ("cannot_see",), o.camera_retreat, o.axial_retreat, o.path_length,
                o.peak_linear_speed, o.peak_angular_speed, o.final_translation_error, o.final_rotation_error)
 
@@ -779,25 +782,33 @@ def page(rows: Sequence[Row], figure_names: Sequence[str], rotations: int, gener
     return wrap("\n".join(parts))
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    """`ibvs wide`: run the study, write wide.csv, wide-study.md and the figures (and docs/ with --docs)."""
-    from ..cli.args import Parser, number  # one-line errors, exit status 2, as every ibvs command's
+def build_parser():
+    """The parser of `ibvs wide` (one-line errors, exit status 2; --out tried for writing when parsed)."""
+    from ..cli import args as a
 
-    p = Parser(prog="ibvs wide", description="A 220-degree fisheye (--fov: another) servoed on perspective features "
-               "(Cartesian, polar, stacked) and on features on the sphere (spherical, spherical-polar, stacked), on "
-               "the paper's cases, rotations and random wide starts.")
-    p.add_argument("--out", default="ibvs-wide", help="output directory: wide.csv, wide-study.md, figures")
-    p.add_argument("--rotations", type=int, default=19, help="angles about the optical axis from 0 to 180 deg (19)")
-    p.add_argument("--general", type=int, default=200, help="random starts, tilted up to 100 deg (200)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--fov", type=number(*FOV_LIMITS), default=FOV, metavar="DEGREES",
+    p = a.Parser(prog="ibvs wide", description="A 220-degree fisheye (--fov: another) servoed on perspective features "
+                 "(Cartesian, polar, stacked) and on features on the sphere (spherical, spherical-polar, stacked), on "
+                 "the paper's cases, rotations and random wide starts.",
+                 epilog=a.exit_status("the study ran; its files are written"))
+    a.add_output(p, "--out", type=a.out_dir, default="ibvs-wide",
+                 help="output directory: wide.csv, wide-study.md, figures (created if missing)")
+    p.add_argument("--rotations", type=a.number(2, 181, integer=True), default=19,
+                   help="angles about the optical axis from 0 to 180 deg, 2 to 181 (19)")
+    p.add_argument("--general", type=a.number(0, 100000, integer=True), default=200,
+                   help="random starts, tilted up to 100 deg, 0 to 100000 (200)")
+    p.add_argument("--seed", type=a.number(0, a.SEED_MAX, integer=True), default=0)
+    p.add_argument("--fov", type=a.number(*FOV_LIMITS), default=FOV, metavar="DEGREES",
                    help=f"the fisheye's full field of view, degrees in [{FOV_LIMITS[0]:g}, {FOV_LIMITS[1]:g}] "
                         f"({FOV:g}): its image circle, fov/2 off the axis, inscribed in the sensor")
     p.add_argument("--docs", action="store_true",
                    help="also write docs/wide-study.md and docs/figures/wide_*.png of this repository")
+    return p
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """`ibvs wide`: run the study, write wide.csv, wide-study.md and the figures (and docs/ with --docs)."""
+    p = build_parser()
     args = p.parse_args(argv)
-    if not 2 <= args.rotations <= 181 or not 0 <= args.general <= 100000 or args.seed < 0:
-        p.error("--rotations must be in [2, 181], --general in [0, 100000] and --seed >= 0")
     docs = output.docs_dir(p, args.docs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -26,6 +26,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from ..finite import finite_within
+
 from .._core import se3_exp
 from .._core import sim as _sim
 from .images import camera_image_size, check_real, opencv
@@ -544,7 +546,7 @@ def _disc_of(xy: np.ndarray) -> Tuple[np.ndarray, float]:
     c = xy.mean(0)
     r = np.linalg.norm(xy - c, axis=1)
     R = float(r.mean())
-    if not (R > 0) or np.abs(r - R).max() > 1e-9 * R:
+    if not (R > 0) or not finite_within(r - R, 1e-9 * R):
         raise ValueError(
             "target: a disc's points must lie on a circle about their mean in the target's z = 0 plane "
             "(e.g. evenly spaced on its rim)"
@@ -559,7 +561,7 @@ def _tag_side(xy: np.ndarray) -> float:
     side = np.linalg.norm(xy[1] - xy[0])
     c = xy.mean(0)
     expected = c + side / 2 * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
-    if not (side > 0) or np.abs(xy - expected).max() > 1e-9 * max(side, 1.0):
+    if not (side > 0) or not finite_within(xy - expected, 1e-9 * max(side, 1.0)):
         raise ValueError(
             "target: a tag's points must be the corners of an axis-aligned square in the target's "
             "z = 0 plane, "

@@ -16,6 +16,7 @@
 #pragma once
 
 #include "ibvs/feature.hpp"
+#include "ibvs/finite.hpp"
 #include "ibvs/limits.hpp"
 
 #include <Eigen/Core>
@@ -54,9 +55,9 @@ class FunctionFeature final : public Feature {
     Eigen::Matrix<double, Eigen::Dynamic, 6, 0, max_function_rows, 6> L(rows_, 6);
     Eigen::Map<MatrixX6> Lmap(L.data(), rows_, 6);
     if (!f_(m, s, Lmap)) return "refused by the feature's function";
-    for (int i = 0; i < rows_; ++i)
-      if (!(std::abs(s[i]) <= max_matrix_entry)) return "the feature's function gave a non-finite or huge value";
-    if (!(L.cwiseAbs().maxCoeff() <= max_matrix_entry))
+    if (!finite_within(Eigen::Map<const Eigen::VectorXd>(s, rows_), max_matrix_entry))
+      return "the feature's function gave a non-finite or huge value";
+    if (!finite_within(L, max_matrix_entry))
       return "the feature's function gave a non-finite or huge interaction matrix";
     return nullptr;
   }

@@ -4,12 +4,14 @@ its arguments."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
 from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence, Union
 
+from ...writer_lock import one_writer
 from .. import schemes as schemes_mod
 from ..schemes import SCHEMES
 from ..scenario import Scenario, builtin
@@ -81,7 +83,8 @@ def sweep(
 ) -> list[dict]:
     """Run a sweep; returns its rows (dicts over COLUMNS) sorted by (index, scheme).
 
-    out: CSV file (rows appended as they finish; rows already in it are skipped) or None.
+    out: CSV file (rows appended as they finish; rows already in it are skipped) or None. Locked for the whole
+        run (ibvs.writer_lock): another process writing it raises ibvs.writer_lock.WriterBusy at once.
     scenario: a Scenario (ibvs.study.scenario), a built-in name ("free" or "gantry"), or a TOML
         scenario file, whose [sweep] table gives defaults for episodes, seed and schemes.
         world: the built-in name (the same as scenario=name).
@@ -118,37 +121,41 @@ def sweep(
     path = Path(out) if out is not None else None
     if path is not None and path.is_dir():
         raise ValueError(f"out: {path} is a directory")
-    config = spec.config()
-    existing = {r["id"]: r for r in load(path, config)} if path is not None else {}
-    wanted = [(i, s) for i in range(spec.size) for s in spec.schemes]
-    todo = [(i, s) for i, s in wanted if episode_id(config, i, s) not in existing]
-    if limit is not None:
-        todo = todo[:limit]
-    factories = {s: schemes_mod.entry(s) for s in spec.schemes}
-    client = connect(scheduler) if scheduler is not None else None
-    rows = dict(existing)
-    writer = RowWriter(path)
-    bar = Progress(spec.size, len(spec.schemes), [i for i, s in wanted if episode_id(config, i, s) in existing],
-                   progress)
-    n_workers = jobs or os.cpu_count() or 1
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    # One writer per file (ibvs.writer_lock): held from reading what the file has to the last row appended.
+    with one_writer(path) if path is not None else contextlib.nullcontext():
+        config = spec.config()
+        existing = {r["id"]: r for r in load(path, config)} if path is not None else {}
+        wanted = [(i, s) for i in range(spec.size) for s in spec.schemes]
+        todo = [(i, s) for i, s in wanted if episode_id(config, i, s) not in existing]
+        if limit is not None:
+            todo = todo[:limit]
+        factories = {s: schemes_mod.entry(s) for s in spec.schemes}
+        client = connect(scheduler) if scheduler is not None else None
+        rows = dict(existing)
+        writer = RowWriter(path)
+        bar = Progress(spec.size, len(spec.schemes), [i for i, s in wanted if episode_id(config, i, s) in existing],
+                       progress)
+        n_workers = jobs or os.cpu_count() or 1
 
-    def take(batch_rows):
-        writer.write(batch_rows)
-        for r in batch_rows:
-            rows[r["id"]] = r
-        bar.update(r["index"] for r in batch_rows)
+        def take(batch_rows):
+            writer.write(batch_rows)
+            for r in batch_rows:
+                rows[r["id"]] = r
+            bar.update(r["index"] for r in batch_rows)
 
-    try:
-        if client is not None:
-            run_dask(client, scheduler is not client, spec, todo, factories, batch, take)
-        elif n_workers == 1 or len(todo) <= (batch or 16):
-            for chunk in chunks(todo, batch or 16):
-                take(run_batch(spec, chunk, factories))
-        else:
-            size = batch or max(1, min(256, math.ceil(len(todo) / (4 * n_workers))))
-            run_local(n_workers, spec, chunks(todo, size), factories, take)
-    finally:
-        bar.close()
-        writer.close()
+        try:
+            if client is not None:
+                run_dask(client, scheduler is not client, spec, todo, factories, batch, take)
+            elif n_workers == 1 or len(todo) <= (batch or 16):
+                for chunk in chunks(todo, batch or 16):
+                    take(run_batch(spec, chunk, factories))
+            else:
+                size = batch or max(1, min(256, math.ceil(len(todo) / (4 * n_workers))))
+                run_local(n_workers, spec, chunks(todo, size), factories, take)
+        finally:
+            bar.close()
+            writer.close()
     keep = {episode_id(config, i, s) for i, s in wanted}
     return sorted((r for k, r in rows.items() if k in keep), key=lambda r: (r["index"], r["scheme"]))
