@@ -12,9 +12,11 @@ lost_feature; never a NaN twist).
 
 "moments" (Bakthavatchalam, Tahri & Chaumette, IEEE T-RO 2018): ibvs.photometric_moments of the
 undistorted image (each pixel weighs its intensity; the plate must be seen whole on a black background:
-the renderer's background is 0) -> ibvs.MomentsFeature.measure("region"), as a polygon's moments
-(ibvs.vision.blob, feature "moments", with a* and Z* from the goal's image). A plate touching the image
-border is lost. Sensor noise on the black background weighs too (clipped at 0: a bias, grows with noise).
+the renderer's background is 0, and pixels darker than half the plate's darkest level, 20, are set to 0:
+the sensor noise on the background would otherwise bias the moments) -> ibvs.MomentsFeature.measure
+("region"), as a polygon's moments (ibvs.vision.blob, feature "moments", with a* and Z* from the goal's
+image). A plate touching the image border is lost. A lighting change scales the moments: a gain g moves
+the depth feature an = Z* sqrt(a*/a) by 1/sqrt(g) (no invariance to lighting).
 
 Both render through the camera's lens and undistort onto the pinhole image of its px, py, u0, v0 before
 measuring (ibvs.vision.blob.BlobMeasure, whose set-up, noise restarts and pickling they share).
@@ -28,6 +30,7 @@ from .._core import FunctionFeature, LuminanceServo, MomentsFeature, photometric
 from .._core import sim as _sim
 from .blob import BlobMeasure
 from .images import check_real
+from .sensor import _lighting_pair
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["DENSE_FEATURES", "PhotometricMeasure", "photometric_source", "luminance_block"]
@@ -57,21 +60,24 @@ class PhotometricMeasure(BlobMeasure):
       feature         "luminance" or "moments"
       border, smoothing, mu, jacobian  ibvs.LuminanceServo's options (luminance)
       renderer_options  Renderer's texture, noise, seed, blur, gain, offset (a lighting change since the
-                      goal: set_lighting on .renderer, or gain/offset here for the whole episode, goal too)
+                      goal: gain/offset here hold for the goal and the episode alike)
+      lighting        None, or (gain, offset): the lighting of the episode's frames (0, 1, ...) when it
+                      changed since the goal was taught (ibvs.vision.ImageSensor's option)
     """
 
     def __init__(self, camera, target, feature: str = "luminance", border: int = 10, smoothing: float = 0.0,
-                 mu: float = 0.01, jacobian: str = "desired", **renderer_options):
+                 mu: float = 0.01, jacobian: str = "desired", lighting=None, **renderer_options):
         if feature not in DENSE_FEATURES:
             raise ValueError(f"feature must be one of {DENSE_FEATURES}, got {feature!r}")
         if "exposure" in renderer_options:
             raise ValueError("exposure: a feature source is not given the camera's twist (no motion blur)")
         self._arguments = dict(camera=camera, target=target, feature=feature, border=border, smoothing=smoothing,
-                               mu=mu, jacobian=jacobian, **renderer_options)
+                               mu=mu, jacobian=jacobian, lighting=lighting, **renderer_options)
         self.feature = feature
         if feature == "moments":
             renderer_options = {"background": 0.0, **renderer_options}
         self._setup(camera, target, "texture", renderer_options)
+        self._lighting = _lighting_pair(self.renderer, lighting)
         self._options = dict(border=border, smoothing=check_real(smoothing, "smoothing", 0.0, 100.0),
                              mu=check_real(mu, "mu", 0.0, 1e6), jacobian=jacobian)
         LuminanceServo(self._pinhole, *self.renderer.size, **self._options)  # the options checked now
@@ -94,7 +100,9 @@ class PhotometricMeasure(BlobMeasure):
         if inside[0].any() or inside[-1].any() or inside[:, 0].any() or inside[:, -1].any() or not inside.any():
             return None  # a plate cut by the image border, or none
         plane = _sim.plane_in_camera(depth_pose)
-        mo = photometric_moments(self._pinhole, np.maximum(image, 0.0).astype(np.float64))
+        # the background's noise is left out (below half the plate's darkest level): over the whole image it
+        # would outweigh the plate's far corners in the higher-order moments
+        mo = photometric_moments(self._pinhole, np.where(inside, image, 0.0).astype(np.float64))
         if frame < 0 or self._goal is None or not np.array_equal(self._goal[0], goal):
             if frame >= 0:
                 return None
@@ -108,6 +116,7 @@ class PhotometricMeasure(BlobMeasure):
             self._restart_noise(cMo)
         if not np.isfinite(depth_pose).all():
             return None
+        self.renderer.set_lighting(*self._lighting[frame >= 0])
         image = self.undistorted(self.image(cMo), self.renderer.background)
         try:
             if self.feature == "luminance":
