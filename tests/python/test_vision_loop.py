@@ -90,3 +90,22 @@ def test_dense_textureless_goal_is_refused():
     away = sim.pose(r=(0.0, 1.2, 0.0))
     r = sim.run(schemes.make("photometric", 1.0, 4), SMALL, target, away, np.eye(4), duration=1.0)
     assert r.status.outcome in ("lost_feature", "left_image") and np.isfinite(r.history.twist[:-1]).all()
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_MEASURES = {f: vision.PhotometricMeasure(SMALL, TARGET, f, noise=2.0) for f in vision.DENSE_FEATURES}
+_GOAL = np.asarray(TARGET.pose)
+
+
+@settings(max_examples=30, deadline=None)
+@given(feature=st.sampled_from(vision.DENSE_FEATURES),
+       t=st.tuples(*[st.floats(-1, 1, allow_nan=False)] * 3), r=st.tuples(*[st.floats(-4, 4, allow_nan=False)] * 3))
+def test_dense_measure_of_any_pose_is_finite_or_lost(feature, t, r):
+    """Any camera pose (behind the plate, edge-on, inside it): a finite measurement or None (lost), never NaN."""
+    m = _MEASURES[feature]
+    assert m(-1, _GOAL, _GOAL, _GOAL, None, None) is not None
+    cMo = np.linalg.inv(sim.pose(t=t, r=r)) @ _GOAL
+    out = m(1, cMo, cMo, _GOAL, None, None)
+    assert out is None or np.isfinite(np.asarray(out)).all()
