@@ -78,6 +78,8 @@ SHRINK = {
          "cp \"$(python -c 'from ibvs import sim; print(sim.example_robot_urdf(\"ur5\"))')\" my_arm.urdf\n"
          "ibvs sweep --scenario docs/scenario_arm.toml --out arm.csv --episodes 2 --jobs 1\n")],
     ("docs/benchmarks.md", "--sections components --layout cartesian,stacked"): [("50000", "300"), ("20000", "300")],
+    # The photometric rows of the page (2000 calls each, ~1 min): a smoke run here.
+    ("docs/photometric.md", "--sections photometric"): [("taskset -c 1 ", ""), ("--iterations 2000", "--iterations 20")],
     # Issue 21's tasks beside their floors: pinned and 30000 iterations for the page's figures, a smoke run here.
     ("docs/benchmarks.md", "--sections components,tasks"): [("taskset -c 1 ", ""), ("30000", "300"), ("20000", "300")],
     # The full run (2 min on 2 cores) rewrites the page's tables; here a few episodes, written into the test's folder.

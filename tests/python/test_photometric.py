@@ -244,3 +244,27 @@ def test_repr_and_properties():
     assert repr(s).startswith("LuminanceServo(160x120, border 10, 14000 pixels, J mean")
     s.set_desired(render(pose(), K, (W, H_), DEPTH, waves))
     assert "status='ok'" in repr(s.update(render(pose((0.001, 0, 0)), K, (W, H_), DEPTH, waves)))
+
+
+def test_interaction_against_the_simulators_8bit_renderer():
+    """The same check on the package's own renderer (ibvs.vision.Renderer, kind "texture": the procedural
+    texture on a 0.6 m plate, warped by a homography with bilinear resampling, 8-bit output), with the
+    servo's Gaussian pre-smoothing (sigma 1 px). Its 8-bit levels and resampling bound the accuracy: each
+    column's step is the one that suits it (the image moves ~1.6 px), and the columns agree to 5 % for the
+    translations across the axis and the rotations about the image axes, 30 % for tz and wz (whose motion
+    vanishes at the image centre, so fewer pixels carry them above the 8-bit noise)."""
+    pytest.importorskip("cv2", reason="the renderer needs OpenCV (the vision extra)")
+    from ibvs import sim, vision
+
+    cam = ibvs.CameraModel(px=F, py=F, u0=K[0, 2], v0=K[1, 2], width=W, height=H_)
+    renderer = vision.Renderer(cam, sim.Target.square(0.6, sim.pose(t=(0.0, 0.0, DEPTH))), "texture")
+    T = ibvs.se3_exp([0.005, -0.004, -0.01, 0.03, -0.02, 0.05])
+    servo = ibvs.LuminanceServo(cam, W, H_, plane=plane_in_camera(T, DEPTH), smoothing=1.0)
+    L = servo.interaction(renderer.render(T))
+    steps, tol = (4e-3, 4e-3, 1.6e-2, 8e-3, 8e-3, 1.6e-2), (0.05, 0.05, 0.3, 0.05, 0.05, 0.3)
+    for k in range(6):
+        h = steps[k]
+        fd = (servo.intensities(renderer.render(moved(T, k, h)))
+              - servo.intensities(renderer.render(moved(T, k, -h)))) / (2 * h)
+        rel = np.linalg.norm(L[:, k] - fd) / np.linalg.norm(fd)
+        assert rel < tol[k], (k, rel)

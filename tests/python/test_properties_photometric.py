@@ -65,7 +65,8 @@ def test_luminance_options_are_answered_or_refused_by_name(values, border):
         servo = ibvs.LuminanceServo(CAM, W, H_, border=border, smoothing=smoothing, gain=gain, mu=mu,
                                     plane=(a, b, c), min_conditioning=cond)
     except ValueError as e:
-        assert refused_by_name(e, "border", "smoothing", "gain", "mu", "min_conditioning", "plane", "width", "camera"), e
+        names = ("border", "smoothing", "gain", "mu", "min_conditioning", "plane", "width", "camera")
+        assert refused_by_name(e, *names), e
         return
     try:
         servo.set_desired(GOAL)
