@@ -109,3 +109,15 @@ def test_dense_measure_of_any_pose_is_finite_or_lost(feature, t, r):
     cMo = np.linalg.inv(sim.pose(t=t, r=r)) @ _GOAL
     out = m(1, cMo, cMo, _GOAL, None, None)
     assert out is None or np.isfinite(np.asarray(out)).all()
+
+
+def test_sweep_episode_of_image_schemes():
+    """The sweep's run_episode runs the image schemes through their sensor or dense source (1 s episodes of the
+    free scenario: its normalised camera imaged by image_camera's 640x480 pinhole)."""
+    from ibvs.study import sweep as sw
+    from ibvs.study.scenario import builtin
+
+    spec = sw.SweepSpec(builtin("free").replace(duration=1.0), episodes=1, schemes=("keypoints", "photometric"))
+    for scheme in ("keypoints", "photometric"):
+        row = sw.run_episode(spec, 0, scheme)
+        assert row["scheme"] == scheme and row["outcome"] in sim.OUTCOMES and row["frame"] >= 0
