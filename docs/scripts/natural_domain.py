@@ -12,8 +12,9 @@ each of magnitude `level` in a random direction (numpy default_rng(trial)):
   rotation     the camera turned by `level` degrees about its optical axis (through the plate's centre);
   tilt         the camera orbited the plate's centre by `level` degrees about a random axis of the plate's
                plane (the plate stays centred, seen at an angle).
-Every scheme runs through ibvs.sim.run with gain GAIN for DURATION s (ending early once the true corners are
-within 0.25 px of the goal's); a run succeeds when its final pose is within 5 mm and 0.5 degrees of the goal.
+Every scheme runs through ibvs.sim.run with gain GAIN for DURATION s (ending early once the measured corners, or
+for the dense schemes the true ones, are within 0.25 px of the goal's); a run succeeds when at its end the true
+corners (History.projected) are within 1 px of their goal image.
 
 python docs/scripts/natural_domain.py [TRIALS] (default 2; about 5 minutes of CPU) prints the table and writes
 docs/figures/direct_error_images.png (|I - I*| at the start and the end of a photometric run);
@@ -71,8 +72,13 @@ def run(scheme: str, pose: np.ndarray, seed: int, lighting=LIGHTING):
                    tolerance_px=0.25, seed=seed)
 
 
+GOAL_PX = np.array(CAM.project(np.array([[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]])))
+
+
 def success(r) -> bool:
-    return r.metrics.final_translation_error < 5e-3 and np.degrees(r.metrics.final_rotation_error) < 0.5
+    """The true corners within 1 px of their goal at the end (whatever the tracker measured)."""
+    last = np.asarray(r.history.projected)[-1]
+    return bool(np.isfinite(last).all() and np.abs(last - GOAL_PX).max() < 1.0)
 
 
 def table() -> str:

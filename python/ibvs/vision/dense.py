@@ -12,8 +12,8 @@ lost_feature; never a NaN twist).
 
 "moments" (Bakthavatchalam, Tahri & Chaumette, IEEE T-RO 2018): ibvs.photometric_moments of the
 undistorted image (each pixel weighs its intensity; the plate must be seen whole on a black background:
-the renderer's background is 0, and pixels darker than half the plate's darkest level, 20, are set to 0:
-the sensor noise on the background would otherwise bias the moments) -> ibvs.MomentsFeature.measure
+the renderer's background is 0, and pixels farther than 2 px from the plate (darker than half its darkest
+level, 20) are set to 0: the sensor noise on the background would otherwise bias the moments) -> ibvs.MomentsFeature.measure
 ("region"), as a polygon's moments (ibvs.vision.blob, feature "moments", with a* and Z* from the goal's
 image). A plate touching the image border is lost. A lighting change scales the moments: a gain g moves
 the depth feature an = Z* sqrt(a*/a) by 1/sqrt(g) (no invariance to lighting).
@@ -29,8 +29,8 @@ import numpy as np
 from .._core import FunctionFeature, LuminanceServo, MomentsFeature, photometric_moments
 from .._core import sim as _sim
 from .blob import BlobMeasure
-from .images import check_real
-from .sensor import _lighting_pair
+from .images import check_real, opencv
+from .renderer import lighting_pair
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["DENSE_FEATURES", "PhotometricMeasure", "photometric_source", "luminance_block"]
@@ -77,7 +77,7 @@ class PhotometricMeasure(BlobMeasure):
         if feature == "moments":
             renderer_options = {"background": 0.0, **renderer_options}
         self._setup(camera, target, "texture", renderer_options)
-        self._lighting = _lighting_pair(self.renderer, lighting)
+        self._lighting = lighting_pair(self.renderer, lighting)
         self._options = dict(border=border, smoothing=check_real(smoothing, "smoothing", 0.0, 100.0),
                              mu=check_real(mu, "mu", 0.0, 1e6), jacobian=jacobian)
         LuminanceServo(self._pinhole, *self.renderer.size, **self._options)  # the options checked now
@@ -100,9 +100,11 @@ class PhotometricMeasure(BlobMeasure):
         if inside[0].any() or inside[-1].any() or inside[:, 0].any() or inside[:, -1].any() or not inside.any():
             return None  # a plate cut by the image border, or none
         plane = _sim.plane_in_camera(depth_pose)
-        # the background's noise is left out (below half the plate's darkest level): over the whole image it
-        # would outweigh the plate's far corners in the higher-order moments
-        mo = photometric_moments(self._pinhole, np.where(inside, image, 0.0).astype(np.float64))
+        # the background's noise is left out beyond 2 px of the plate (pixels above half its darkest level,
+        # grown by 2 px so that its anti-aliased rim stays whole): over the whole image the noise would
+        # outweigh the plate's far corners in the higher-order moments
+        near = opencv().dilate(inside.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+        mo = photometric_moments(self._pinhole, np.where(near, image, 0.0).astype(np.float64))
         if frame < 0 or self._goal is None or not np.array_equal(self._goal[0], goal):
             if frame >= 0:
                 return None

@@ -571,3 +571,16 @@ def _tag_side(xy: np.ndarray) -> float:
             "in the order (-,-), (+,-), (+,+), (-,+) (Target.square)"
         )
     return float(side)
+
+
+def lighting_pair(renderer: Renderer, lighting):
+    """((goal gain, offset), (episode gain, offset)): the renderer's own, then `lighting` (checked)."""
+    goal = (renderer.gain, renderer.offset)
+    if lighting is None:
+        return goal, goal
+    if not isinstance(lighting, (tuple, list)) or len(lighting) != 2:
+        raise ValueError(f"lighting must be None or (gain, offset), got {lighting!r}")
+    renderer.set_lighting(*lighting)  # checks it
+    episode = (renderer.gain, renderer.offset)
+    renderer.set_lighting(*goal)
+    return goal, episode

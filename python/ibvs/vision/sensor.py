@@ -10,7 +10,7 @@ from .._core import sim as _sim
 from .dots import DotTracker
 from .keypoints import KeypointTracker
 from .klt import KltTracker
-from .renderer import Renderer
+from .renderer import Renderer, lighting_pair
 from .tag import TagDetector
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -60,7 +60,7 @@ class ImageSensor(_sim.Sensor):
                 f"detector: image_size {detector.size} differs from the camera's {renderer.size}"
             )
         self.renderer, self.detector, self.keep_frames = renderer, detector, bool(keep_frames)
-        self._lighting = _lighting_pair(renderer, lighting)
+        self._lighting = lighting_pair(renderer, lighting)
         self.frames: list = []
         self.goal_image = None
         self.render_seconds: list = []
@@ -117,15 +117,3 @@ class ImageSensor(_sim.Sensor):
                 self.frames.append(image)
         return track.pixels
 
-
-def _lighting_pair(renderer: Renderer, lighting):
-    """((goal gain, offset), (episode gain, offset)): the renderer's own, then `lighting` (checked)."""
-    goal = (renderer.gain, renderer.offset)
-    if lighting is None:
-        return goal, goal
-    if not isinstance(lighting, (tuple, list)) or len(lighting) != 2:
-        raise ValueError(f"lighting must be None or (gain, offset), got {lighting!r}")
-    renderer.set_lighting(*lighting)  # checks it
-    episode = (renderer.gain, renderer.offset)
-    renderer.set_lighting(*goal)
-    return goal, episode
