@@ -17,7 +17,7 @@ omnidirectional lenses, through each pixel's bearing), track (Track), dots
 (DotTracker), tag (TagDetector), klt (KltTracker) and keypoints (KeypointTracker): natural features
 of a textured plate (planar: what they share), dense (photometric servoing and photometric moments as
 feature sources of rendered images), moments (image_moments: a binary image's moments), blob (blob_source: blob
-moments and ellipses from rendered images, for sim.Target(features=...)), sensor (ImageSensor), texture (texture: a procedural texture; load_texture), video (draw_points, write_video); this
+moments and ellipses from rendered images, for sim.Target(features=...)), sensor (ImageSensor), textures (texture: a procedural texture; load_texture), video (draw_points, write_video); this
 package re-exports their public names. Rendering is described in ibvs.vision.renderer.
 """
 
@@ -33,7 +33,7 @@ from .moments import image_moments
 from .renderer import KINDS, Renderer
 from .sensor import SENSOR_KINDS, ImageSensor
 from .tag import TagDetector
-from .texture import load_texture, texture
+from .textures import load_texture, texture
 from .track import Track
 from .video import draw_points, write_video
 

@@ -31,8 +31,8 @@ from .._core import sim as _sim
 from .images import camera_image_size, check_real, opencv
 from .rays import WIDE_MODELS, Rays
 from .tag import TAG_DICTIONARIES
-from .texture import load_texture
-from .texture import texture as procedural_texture
+from .textures import load_texture
+from .textures import texture as procedural_texture
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["KINDS", "Renderer"]
