@@ -138,9 +138,10 @@ START = ibvs.se3_exp([0.03, -0.02, 0.03, 0.0, 0.0, np.deg2rad(40.0)])
 
 def test_wider_domain_than_luminance():
     """From a 40-degree turn about the optical axis and 3-4 cm off, the luminance law (J at the goal,
-    Levenberg-Marquardt) ends far from the goal while the photometric moments reach it to 1e-6."""
+    Levenberg-Marquardt) stops in a local minimum (2 cm and 2.4 degrees off after 60 steps, the same after
+    300) while the photometric moments reach the goal to 1e-6."""
     T = luminance_loop(START)
-    assert np.abs(T[:3, 3]).max() > 5e-3 or np.abs(T[:3, :3] - np.eye(3)).max() > 1e-2
+    assert np.abs(T[:3, 3]).max() > 0.01
     T, r = moments_loop(START)
     assert r.error_norm < 1e-8
     assert np.abs(T[:3, 3]).max() < 1e-6 and np.abs(T[:3, :3] - np.eye(3)).max() < 1e-6, T
