@@ -121,3 +121,6 @@ def test_sweep_episode_of_image_schemes():
     for scheme in ("keypoints", "photometric"):
         row = sw.run_episode(spec, 0, scheme)
         assert row["scheme"] == scheme and row["outcome"] in sim.OUTCOMES and row["frame"] >= 0
+        # as the sweep's workers receive it: the Scheme entry carries the sensor kind or dense feature
+        again = sw.run_episode(spec, 0, scheme, factory=schemes.entry(scheme))
+        assert {k: again[k] for k in ("outcome", "frame")} == {k: row[k] for k in ("outcome", "frame")}

@@ -230,10 +230,10 @@ def points_only() -> tuple:
 
 
 def dense_target(scheme, camera, target, **options):
-    """(camera, target) of a run of a dense scheme (DENSE): ibvs.vision.image_camera(camera) and the target
+    """(camera, target) of a run of a dense scheme (a name in DENSE, or a Scheme with its dense feature): ibvs.vision.image_camera(camera) and the target
     with the scheme's ibvs.vision.photometric_source (options: its renderer's and LuminanceServo's); the
     camera and the target themselves for any other scheme."""
-    feature = DENSE.get(scheme) if isinstance(scheme, str) else None
+    feature = DENSE.get(scheme) if isinstance(scheme, str) else getattr(scheme, "dense", None)
     if feature is None:
         return camera, target
     from .. import vision
@@ -243,10 +243,10 @@ def dense_target(scheme, camera, target, **options):
 
 
 def sensor_for(scheme, camera, target, **renderer_options):
-    """The image sensor a run of `scheme` needs (VISION; None for the others): an ibvs.vision.ImageSensor
+    """The image sensor a run of `scheme` (a name or a Scheme) needs (VISION; None for the others): an ibvs.vision.ImageSensor
     of its kind for the target, its camera ibvs.vision.image_camera(camera) (a normalised camera gets a
     640x480 pinhole): use sensor.renderer.camera as the run's camera."""
-    kind = VISION.get(scheme) if isinstance(scheme, str) else None
+    kind = VISION.get(scheme) if isinstance(scheme, str) else getattr(scheme, "vision", None)
     if kind is None:
         return None
     from .. import vision
@@ -271,15 +271,18 @@ def _takes_points(factory) -> bool:
 @dataclasses.dataclass(frozen=True)
 class Scheme:
     """A scheme as a worker process receives it: its factory and its target function (None: the
-    target as it is). Picklable when both are module-level functions."""
+    target as it is), its image sensor kind (VISION) and dense feature (DENSE), None for neither.
+    Picklable when both functions are module-level functions."""
 
     factory: Callable[..., Any]
     target: Optional[Callable[..., Any]] = None
+    vision: Optional[str] = None
+    dense: Optional[str] = None
 
 
 def entry(name: str) -> Scheme:
     """The registered scheme `name` as a Scheme (factory and target function)."""
-    return Scheme(SCHEMES[name], TARGETS.get(name))
+    return Scheme(SCHEMES[name], TARGETS.get(name), VISION.get(name), DENSE.get(name))
 
 
 def target_for(scheme, target):
