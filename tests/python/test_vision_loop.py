@@ -124,3 +124,25 @@ def test_sweep_episode_of_image_schemes():
         # as the sweep's workers receive it: the Scheme entry carries the sensor kind or dense feature
         again = sw.run_episode(spec, 0, scheme, factory=schemes.entry(scheme))
         assert {k: again[k] for k in ("outcome", "frame")} == {k: row[k] for k in ("outcome", "frame")}
+
+
+def test_lost_target_ramps_the_twist_down():
+    """The plate goes dark at frame 15 (the light goes out): the keypoint tracker reports every corner lost,
+    and with keep_lost the servo ramps its twist to zero over its stop time before lost_feature."""
+
+    class LightsOut(vision.ImageSensor):
+        def measure(self, frame, pose, projected, twist):
+            if frame == 15:
+                self._lighting = (self._lighting[0], (0.0, 0.0))
+            return super().measure(frame, pose, projected, twist)
+
+    r0 = vision.Renderer(CAM, TARGET, "texture", noise=1.0)
+    sensor = LightsOut(r0, vision.KeypointTracker(image_size=r0.size))
+    start = sim.pose(t=(0.03, -0.02, -0.05), r=(0.0, 0.0, 0.3))
+    servo = ibvs.Servo(ibvs.Layout.cartesian(4), gain=1.0, stop_time=0.5, period=1.0)  # the keypoints scheme's
+    r = sim.run(servo, CAM, TARGET, start, np.eye(4), duration=4.0, vision=sensor, keep_lost=True, tolerance_px=0.1)
+    assert r.status.outcome == "lost_feature" and r.status.frame > 15
+    assert np.isnan(r.history.measured[15:]).all() and np.isfinite(r.history.measured[:15]).all()
+    speed = np.linalg.norm(r.history.twist[14:r.status.frame + 1], axis=1)
+    assert np.isfinite(speed).all() and speed[0] > 0.01 and speed[-1] == 0.0
+    assert (np.diff(speed[1:]) <= 1e-12).all()  # a ramp down, no jump back up
