@@ -609,6 +609,100 @@ def format_vision(res: dict[str, Any]) -> str:
     return "\n".join(lines + why)
 
 
+def run_natural(frames: int = 100) -> dict[str, Any]:
+    """Per-frame times (ms) of the natural-feature trackers at 640x480 beside OpenCV's own calls alone (the
+    same frames; one OpenCV thread), and their error against the true projections (px)."""
+    import cv2
+
+    from . import sim, vision
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        return _run_natural(frames, cv2, sim, vision)
+    finally:
+        cv2.setNumThreads(threads)
+
+
+def _run_natural(frames, cv2, sim, vision) -> dict[str, Any]:
+    cam = ibvs.CameraModel(600.0, 600.0, 319.5, 239.5, 0.0, 0.0, 640.0, 480.0)
+    target = sim.Target.square(0.2, sim.pose(t=(0, 0, 0.5)))  # a 240 px textured plate at the goal
+    start = np.array([0.05, -0.03, -0.2, 0.2, -0.15, 1.0])
+    poses = [ibvs.se3_exp(start * math.exp(-0.05 * k)) for k in range(frames)]  # a servo's approach
+    renderer = vision.Renderer(cam, target, "texture", noise=1.0)
+    images = [renderer.render(p) for p in poses]
+    truth = [cam.project(_project(p, target)) for p in poses]
+    rows, errors = {}, {}
+
+    def timed(name, fn, n):
+        out = np.empty(n)
+        for k in range(n):
+            t0 = time.perf_counter()
+            fn(k)
+            out[k] = time.perf_counter() - t0
+        rows[name] = out * 1e3
+
+    rows_render = "render textured plate (640x480, noise)"
+    timed(rows_render, lambda k: renderer.render(poses[k]), frames)
+    klt = vision.KltTracker(renderer.size)
+    klt.reset(images[0], truth[0])
+    e_klt = []
+    timed("KltTracker.track (300 features, refined)",
+          lambda k: e_klt.append(np.abs(klt.track(images[k + 1]).pixels - truth[k + 1]).max()), frames - 1)
+    # OpenCV's calls alone on the same frames: LK forward and backward and RANSAC, on 300 corners
+    lk = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+    p0 = cv2.goodFeaturesToTrack(images[0], 300, 0.01, 5, blockSize=5)
+
+    def raw_klt(k):
+        p1, _, _ = cv2.calcOpticalFlowPyrLK(images[k], images[k + 1], p0, None, **lk)
+        cv2.calcOpticalFlowPyrLK(images[k + 1], images[k], p1, None, **lk)
+        cv2.findHomography(p0, p1, cv2.RANSAC, 2.0)
+
+    timed("  cv2 alone: LK forward + backward, findHomography", raw_klt, frames - 1)
+    kp = vision.KeypointTracker(images[-1], truth[-1])  # the goal image as the reference
+    e_kp = []
+    timed("KeypointTracker.detect (ORB 500, refined)",
+          lambda k: e_kp.append(np.abs(kp.detect(images[k]).pixels - truth[k]).max()), frames)
+    orb, matcher = cv2.ORB_create(nfeatures=500, fastThreshold=10), cv2.BFMatcher(cv2.NORM_HAMMING)
+    kr, dr = orb.detectAndCompute(images[-1], None)
+    ref_pts = np.array([q.pt for q in kr], np.float32)
+
+    def raw_kp(k):
+        kq, dq = orb.detectAndCompute(images[k], None)
+        good = [m[0] for m in matcher.knnMatch(dr, dq, k=2) if len(m) == 2 and m[0].distance < 0.8 * m[1].distance]
+        if len(good) >= 4:
+            cv2.findHomography(ref_pts[[m.queryIdx for m in good]],
+                               np.array([kq[m.trainIdx].pt for m in good], np.float32), cv2.RANSAC, 3.0)
+
+    timed("  cv2 alone: ORB, knnMatch, findHomography", raw_kp, frames)
+    errors = {"klt_error_px": e_klt, "keypoints_error_px": e_kp}
+    out = {"frames": frames, "budget_ms": FRAME_BUDGET_MS, "opencv_threads": cv2.getNumThreads(), "cases": []}
+    for name, t in rows.items():
+        med = float(np.median(t))
+        out["cases"].append({"name": name, "median_ms": med, "p99_ms": float(np.percentile(t, 99)),
+                             "max_ms": float(t.max()), "budget_share": med / FRAME_BUDGET_MS})
+    for key, e in errors.items():
+        e = np.asarray(e)
+        ok = np.isfinite(e)
+        out[key] = {"median": float(np.median(e[ok])) if ok.any() else None,
+                    "max": float(e[ok].max()) if ok.any() else None, "lost_frames": int((~ok).sum())}
+    return out
+
+
+def format_natural(res: dict[str, Any]) -> str:
+    lines = [f"natural features, {res['frames']} frames at 640x480, ms per frame: median / p99 / max, share of the "
+             f"{res['budget_ms']:.1f} ms budget at 60 Hz (one OpenCV thread)",
+             f"  {'case':<58} {'median':>8} {'p99':>8} {'max':>8} {'budget':>7}"]
+    for c in res["cases"]:
+        lines.append(f"  {c['name']:<58} {_cell(c['median_ms'], 8)} {_cell(c['p99_ms'], 8)} {_cell(c['max_ms'], 8)} "
+                     f"{100 * c['budget_share']:6.1f}%")
+    for key, label in (("klt_error_px", "KLT"), ("keypoints_error_px", "keypoints")):
+        e = res[key]
+        lines.append(f"  {label} corners vs the true projection (px): median "
+                     f"{_cell(e['median'], 0)} max {_cell(e['max'], 0)} ({e['lost_frames']} frames lost)")
+    return "\n".join(lines)
+
+
 def _texture(w: int, h: int, shift: float, turn: float) -> np.ndarray:
     """ibvs-bench's photometric frames (bench/ibvs_bench.cpp, bench_photometric), the same formula."""
     c, r = np.meshgrid(np.arange(w) - 0.5 * w, np.arange(h) - 0.5 * h)
@@ -670,6 +764,8 @@ def build_parser(prog: str = "python -m ibvs.bench") -> argparse.ArgumentParser:
                    help="time the servo loop's own overhead per frame (ibvs.loop; needs the vision extra)")
     p.add_argument("--photometric", action="store_true",
                    help="time LuminanceServo.update (160x120 and 320x240) instead; --iterations caps at 2000")
+    p.add_argument("--natural", action="store_true",
+                   help="time the natural-feature trackers (KLT, keypoints) at 640x480 beside OpenCV's calls alone")
     p.add_argument("--frames", type=number(2, 100000, integer=True), default=300,
                    help="frames per vision case (2 to 1e5; default 300)")
     return p
@@ -689,6 +785,10 @@ def main(argv: list[str] | None = None, prog: str = "python -m ibvs.bench") -> i
     if args.vision:
         res = run_vision(args.frames)
         print(json.dumps(res, allow_nan=False) if args.json else format_vision(res))
+        return 0
+    if args.natural:
+        res = run_natural(min(args.frames, 1000))
+        print(json.dumps(res, allow_nan=False) if args.json else format_natural(res))
         return 0
     if args.photometric:
         res = run_photometric(min(args.iterations, 2000))

@@ -15,7 +15,7 @@ import pytest
 
 import ibvs.study.sweep as sw
 from ibvs.cli.main import main
-from ibvs.study.schemes import SCHEMES
+from ibvs.study.schemes import DENSE, SCHEMES, VISION
 
 pytest.importorskip("matplotlib")
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "scenario.toml"
@@ -158,7 +158,10 @@ def test_unreachable_scheduler_fails_fast_with_one_line(tmp_path):
     assert "scheduler" in r.stderr and "127.0.0.1:9" in r.stderr
 
 
-@pytest.mark.parametrize("scheme", [s for s in SCHEMES if not s.startswith("moments")])
+# the schemes measured in rendered images (klt, keypoints, photometric...) have their own episodes
+# (tests/python/test_vision_loop.py): photometric servoing does not reach the goal from 60 degrees
+@pytest.mark.parametrize("scheme", [s for s in SCHEMES if not s.startswith("moments") and s not in VISION
+                                    and s not in DENSE])
 def test_run_every_scheme(scheme, capsys):
     rc = main(["run", "--scheme", scheme, "--rotation-deg", "60", "--duration", "15"])
     out = capsys.readouterr().out

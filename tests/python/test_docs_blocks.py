@@ -66,6 +66,8 @@ SHRINK = {
     ("docs/beyond.md", "docs/scripts/depth_modes.py"): [(" 100 ", " 3 ")],
     ("docs/beyond.md", "docs/scripts/halfturn.py"): [(" 1200 ", " 12 ")],
     ("docs/beyond.md", "docs/scripts/flips.py"): [(" 40 ", " 1 ")],
+    ("docs/direct.md", "docs/scripts/natural_domain.py"): [(" 2 ", " 1 quick ")],
+    ("docs/direct.md", "ibvs bench --natural"): [("--frames 100", "--frames 4")],
     ("docs/sweeps.md", "--out mine.csv --figure mine.png"): [
         ("--figure mine.png\n", "--figure mine.png --episodes 2 --jobs 1\n"),
         ("--episodes 1000", "--episodes 3 --jobs 1")],

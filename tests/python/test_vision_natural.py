@@ -198,3 +198,19 @@ def test_trackers_on_any_image_are_finite_or_lost(seed, level, smooth, corners):
             assert set(np.flatnonzero(~ok)) == set(t.lost) and 0 <= kp.confidence <= 1
             if ok.all():
                 assert np.isfinite(kp.homography).all()
+
+
+def test_bench_natural_section(capsys):
+    """`ibvs bench --natural`: the trackers and OpenCV's calls alone timed on the same frames (numbers not
+    checked: a benchmark), the trackers' corners within 0.2 px of the truth."""
+    import json
+
+    from ibvs.bench import main
+
+    assert main(["--natural", "--frames", "6", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    names = [c["name"] for c in res["cases"]]
+    assert len(names) == 5 and sum("cv2 alone" in n for n in names) == 2
+    assert all(c["median_ms"] > 0 for c in res["cases"])
+    for key in ("klt_error_px", "keypoints_error_px"):
+        assert res[key]["max"] < 0.2 and res[key]["lost_frames"] == 0

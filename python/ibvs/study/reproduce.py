@@ -232,6 +232,7 @@ def run_one(world: str, case: str, scheme: str, *, duration: float | None = None
     if isinstance(servo, ibvs.Servo):
         servo.angle_wrap = angle_wrap
     target = schemes.target_for(scheme, c.target)  # with the scheme's feature sources, if any
+    camera, target = schemes.dense_target(scheme, camera, target)  # photometric: its block from rendered images
     result = sim.run(servo, camera, target, c.start, c.goal, robot=c.robot,
                      duration=DURATION[world] if duration is None else duration, noise=noise, latency=latency,
                      depth=DEPTH[world] if depth is None else depth, seed=seed, tolerance=tolerance,

@@ -16,6 +16,9 @@ pbvs_object, 2.5d) measure it with the run's depth mode: "exact" (the true pose)
 A scheme that measures its points in rendered images of a textured plate (klt, keypoints: classic IBVS on
 the plate's four corners as ibvs.vision.KltTracker or KeypointTracker finds them) names its image sensor
 in VISION; run_one and the sweeps then run it through ibvs.vision.ImageSensor.for_target (sensor_for).
+A dense scheme (photometric: the luminance law; photometric_moments) measures its feature block in rendered
+images of the textured plate by a feature source that needs the camera (DENSE, dense_target; the run's
+camera is then ibvs.vision.image_camera(camera)).
 """
 
 from __future__ import annotations
@@ -110,6 +113,20 @@ def keypoints(gain: float, n_points: int = 4):
     return cartesian(gain, n_points)
 
 
+def photometric(gain: float, n_points: int = 4):
+    """Photometric servoing (Collewet & Marchand 2011): the image is the feature, the Levenberg-Marquardt
+    law of ibvs.LuminanceServo (J at the goal image) at this gain (ibvs.vision.dense; DENSE)."""
+    from ..vision.dense import luminance_block
+
+    return ibvs.Servo(ibvs.Task().add(luminance_block()), gain=gain, damping=0.0)
+
+
+def photometric_moments(gain: float, n_points: int = 4):
+    """Photometric moments (Bakthavatchalam, Tahri & Chaumette 2018): the moments task of `moments` on the
+    image's intensity moments of the textured plate on a black background (ibvs.vision.dense; DENSE)."""
+    return ibvs.Servo(ibvs.Task().add(ibvs.MomentsFeature("region", "p", "third_order")), gain=gain, damping=0.0)
+
+
 def _planar_polygon(target, name: str):
     """Refuse a target the moments schemes cannot use, naming why."""
     P = np.asarray(target.points, dtype=float)
@@ -169,7 +186,12 @@ SCHEMES: dict[str, Callable[..., Any]] = {
     "2.5d": point25d,
     "klt": klt,
     "keypoints": keypoints,
+    "photometric": photometric,
+    "photometric_moments": photometric_moments,
 }
+
+#: Scheme name -> the ibvs.vision.DENSE_FEATURES feature its block measures in rendered images.
+DENSE: dict[str, str] = {"photometric": "luminance", "photometric_moments": "moments"}
 
 #: Scheme name -> the ibvs.vision.SENSOR_KINDS kind its points are measured with (image episodes).
 VISION: dict[str, str] = {"klt": "klt", "keypoints": "keypoints"}
@@ -200,19 +222,34 @@ TITLES = {
     "2.5d": "2.5-D (Malis et al.), reference point 0",
     "klt": "IBVS on KLT-tracked plate corners (rendered texture)",
     "keypoints": "IBVS on keypoint-homography plate corners (rendered texture)",
+    "photometric": "photometric servoing (Collewet & Marchand), rendered texture",
+    "photometric_moments": "photometric moments (Bakthavatchalam et al.), rendered texture",
 }
 
 def points_only() -> tuple:
     """The registered schemes on image points only (no target function, no image sensor): what a sweep
     runs by default."""
-    return tuple(s for s in SCHEMES if s not in TARGETS and s not in VISION)
+    return tuple(s for s in SCHEMES if s not in TARGETS and s not in VISION and s not in DENSE)
+
+
+def dense_target(scheme, camera, target, **options):
+    """(camera, target) of a run of a dense scheme (a name in DENSE, or a Scheme with its dense feature): ibvs.vision.image_camera(camera) and the target
+    with the scheme's ibvs.vision.photometric_source (options: its renderer's and LuminanceServo's); the
+    camera and the target themselves for any other scheme."""
+    feature = DENSE.get(scheme) if isinstance(scheme, str) else getattr(scheme, "dense", None)
+    if feature is None:
+        return camera, target
+    from .. import vision
+
+    cam = vision.image_camera(camera)
+    return cam, target.with_features([vision.photometric_source(cam, target, feature, **options)])
 
 
 def sensor_for(scheme, camera, target, **renderer_options):
-    """The image sensor a run of `scheme` needs (VISION; None for the others): an ibvs.vision.ImageSensor
+    """The image sensor a run of `scheme` (a name or a Scheme) needs (VISION; None for the others): an ibvs.vision.ImageSensor
     of its kind for the target, its camera ibvs.vision.image_camera(camera) (a normalised camera gets a
     640x480 pinhole): use sensor.renderer.camera as the run's camera."""
-    kind = VISION.get(scheme) if isinstance(scheme, str) else None
+    kind = VISION.get(scheme) if isinstance(scheme, str) else getattr(scheme, "vision", None)
     if kind is None:
         return None
     from .. import vision
@@ -237,15 +274,18 @@ def _takes_points(factory) -> bool:
 @dataclasses.dataclass(frozen=True)
 class Scheme:
     """A scheme as a worker process receives it: its factory and its target function (None: the
-    target as it is). Picklable when both are module-level functions."""
+    target as it is), its image sensor kind (VISION) and dense feature (DENSE), None for neither.
+    Picklable when both functions are module-level functions."""
 
     factory: Callable[..., Any]
     target: Optional[Callable[..., Any]] = None
+    vision: Optional[str] = None
+    dense: Optional[str] = None
 
 
 def entry(name: str) -> Scheme:
     """The registered scheme `name` as a Scheme (factory and target function)."""
-    return Scheme(SCHEMES[name], TARGETS.get(name))
+    return Scheme(SCHEMES[name], TARGETS.get(name), VISION.get(name), DENSE.get(name))
 
 
 def target_for(scheme, target):

@@ -15,14 +15,16 @@ column c and row r is (u, v) = (c, r). A camera for images has a pixel sensor wh
 Modules: images (cameras with images, image checks), renderer (Renderer; rays: its path for fisheye and
 omnidirectional lenses, through each pixel's bearing), track (Track), dots
 (DotTracker), tag (TagDetector), klt (KltTracker) and keypoints (KeypointTracker): natural features
-of a textured plate (planar: what they share), moments (image_moments: a binary image's moments), blob (blob_source: blob
-moments and ellipses from rendered images, for sim.Target(features=...)), sensor (ImageSensor), texture (texture: a procedural texture; load_texture), video (draw_points, write_video); this
+of a textured plate (planar: what they share), dense (photometric servoing and photometric moments as
+feature sources of rendered images), moments (image_moments: a binary image's moments), blob (blob_source: blob
+moments and ellipses from rendered images, for sim.Target(features=...)), sensor (ImageSensor), textures (texture: a procedural texture; load_texture), video (draw_points, write_video); this
 package re-exports their public names. Rendering is described in ibvs.vision.renderer.
 """
 
 from __future__ import annotations
 
 from .blob import BLOB_FEATURES, BlobMeasure, blob_source
+from .dense import DENSE_FEATURES, PhotometricMeasure, luminance_block, photometric_source
 from .dots import DotTracker
 from .images import check_image, image_camera
 from .keypoints import KEYPOINT_DETECTORS, KeypointTracker
@@ -31,12 +33,13 @@ from .moments import image_moments
 from .renderer import KINDS, Renderer
 from .sensor import SENSOR_KINDS, ImageSensor
 from .tag import TagDetector
-from .texture import load_texture, texture
+from .textures import load_texture, texture
 from .track import Track
 from .video import draw_points, write_video
 
 __all__ = [
     "BLOB_FEATURES",
+    "DENSE_FEATURES",
     "KEYPOINT_DETECTORS",
     "KINDS",
     "SENSOR_KINDS",
@@ -45,6 +48,7 @@ __all__ = [
     "ImageSensor",
     "KeypointTracker",
     "KltTracker",
+    "PhotometricMeasure",
     "Renderer",
     "TagDetector",
     "Track",
@@ -54,6 +58,8 @@ __all__ = [
     "image_camera",
     "image_moments",
     "load_texture",
+    "luminance_block",
+    "photometric_source",
     "texture",
     "write_video",
 ]

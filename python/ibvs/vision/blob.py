@@ -75,8 +75,12 @@ class BlobMeasure:
             raise ValueError("exposure: a blob source is not given the camera's twist (no motion blur)")
         self._arguments = dict(camera=camera, target=target, feature=feature, **renderer_options)
         self.feature = feature
+        self._setup(camera, target, "disc" if feature == "ellipse" else "polygon", renderer_options)
+
+    def _setup(self, camera, target, kind: str, renderer_options: dict) -> None:
+        """The renderer, the undistortion onto the pinhole image and the goal's memory (shared with
+        ibvs.vision.dense.PhotometricMeasure)."""
         self.camera = image_camera(camera)
-        kind = "disc" if feature == "ellipse" else "polygon"
         self.renderer = Renderer(self.camera, target, kind, **renderer_options)
         self._seed = int(renderer_options.get("seed", 0))  # valid: the Renderer checked it
         cam = self.camera
@@ -105,13 +109,18 @@ class BlobMeasure:
         cMo = np.asarray(cMo, dtype=np.float64)
         return self.renderer.render(self._target_pose @ np.linalg.inv(cMo))
 
-    def weights(self, image) -> np.ndarray:
-        """Each pixel's coverage by the blob (float32 in [0, 1]) in the undistorted (pinhole) image."""
-        cv2 = opencv()
+    def undistorted(self, image, border: float) -> np.ndarray:
+        """The image (float32) remapped onto the pinhole image of the camera's px, py, u0, v0 (itself when
+        the camera has no distortion); `border` fills what the sensor does not see."""
         img = np.asarray(image).astype(np.float32)
         if self._undistort is not None:
-            img = cv2.remap(img, *self._undistort, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                            borderValue=float(Renderer.PLATE))
+            img = opencv().remap(img, *self._undistort, opencv().INTER_LINEAR,
+                                 borderMode=opencv().BORDER_CONSTANT, borderValue=float(border))
+        return img
+
+    def weights(self, image) -> np.ndarray:
+        """Each pixel's coverage by the blob (float32 in [0, 1]) in the undistorted (pinhole) image."""
+        img = self.undistorted(image, Renderer.PLATE)
         w = (img - np.float32(Renderer.PLATE)) * np.float32(1.0 / (Renderer.DOT - Renderer.PLATE))
         return np.clip(w, 0.0, 1.0, out=w)
 

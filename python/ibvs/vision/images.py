@@ -36,6 +36,13 @@ def check_real(x, name: str, lo: float = 0.0, hi: float = math.inf) -> float:
     return x
 
 
+def check_int(x, name: str, lo: int, hi: int) -> int:
+    """x as an int in [lo, hi], or a ValueError naming it (a bool is not an int here)."""
+    if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or not lo <= x <= hi:
+        raise ValueError(f"{name} must be an int in [{lo}, {hi}], got {x!r}")
+    return int(x)
+
+
 def camera_image_size(camera) -> Tuple[int, int]:
     """(width, height) of a camera that can have images: pixel bounds [0, W] x [0, H], W and H integers."""
     if not isinstance(camera, CameraModel):

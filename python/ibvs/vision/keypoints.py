@@ -20,8 +20,7 @@ from typing import Optional
 
 import numpy as np
 
-from .images import check_real, opencv
-from .klt import _int
+from .images import check_int, check_real, opencv
 from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask, refine
 from .track import Track
 
@@ -59,10 +58,10 @@ class KeypointTracker(PlanarTarget):
         if detector not in KEYPOINT_DETECTORS:
             raise ValueError(f"detector must be one of {KEYPOINT_DETECTORS}, got {detector!r}")
         self.detector = detector
-        self.n_features = _int(n_features, "n_features", 10, 1000000)
+        self.n_features = check_int(n_features, "n_features", 10, 1000000)
         self.ratio = check_real(ratio, "ratio", 0.05, 1.0)
         self.ransac_threshold = check_real(ransac_threshold, "ransac_threshold", 1e-3, 1000.0)
-        self.min_inliers = _int(min_inliers, "min_inliers", 4, 100000)
+        self.min_inliers = check_int(min_inliers, "min_inliers", 4, 100000)
         if image_size is not None and (
                 not isinstance(image_size, (tuple, list)) or len(image_size) != 2
                 or not all(isinstance(s, (int, np.integer)) and not isinstance(s, bool) and 16 <= s <= 8192

@@ -25,18 +25,12 @@ from typing import Optional
 
 import numpy as np
 
-from .images import check_real, opencv
+from .images import check_int, check_real, opencv
 from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask, refine
 from .track import Track
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["KltTracker"]
-
-
-def _int(x, name: str, lo: int, hi: int) -> int:
-    if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or not lo <= x <= hi:
-        raise ValueError(f"{name} must be an int in [{lo}, {hi}], got {x!r}")
-    return int(x)
 
 
 class KltTracker(PlanarTarget):
@@ -66,14 +60,14 @@ class KltTracker(PlanarTarget):
                            for s in image_size)):
             raise ValueError(f"image_size must be (width, height), ints in [16, 8192], got {image_size!r}")
         self.size = (int(image_size[0]), int(image_size[1]))
-        self.max_features = _int(max_features, "max_features", 4, 100000)
+        self.max_features = check_int(max_features, "max_features", 4, 100000)
         self.quality = check_real(quality, "quality", 1e-6, 1.0)
         self.min_distance = check_real(min_distance, "min_distance", 0.0, 1000.0)
-        self.window = _int(window, "window", 3, 201)
-        self.levels = _int(levels, "levels", 0, 8)
+        self.window = check_int(window, "window", 3, 201)
+        self.levels = check_int(levels, "levels", 0, 8)
         self.fb_threshold = check_real(fb_threshold, "fb_threshold", 1e-3, 1000.0)
         self.ransac_threshold = check_real(ransac_threshold, "ransac_threshold", 1e-3, 1000.0)
-        self.min_inliers = _int(min_inliers, "min_inliers", 4, 100000)
+        self.min_inliers = check_int(min_inliers, "min_inliers", 4, 100000)
         self.redetect_below = check_real(redetect_below, "redetect_below", 0.0, 1.0)
         self._prev = None
         self.pixels = None

@@ -95,9 +95,10 @@ class PlanarTarget:
         if not isinstance(camera, CameraModel):
             raise TypeError(f"camera must be an ibvs.CameraModel, got {type(camera).__name__}")
         P = np.asarray(object_points, dtype=np.float64)
-        if self.pixels is None or P.shape != (len(self.pixels), 3) or not np.isfinite(P).all():
-            raise ValueError(f"object_points must be finite (N, 3) with N = {0 if self.pixels is None else len(self.pixels)}"
-                             f" (one per tracked point), got shape {P.shape}")
+        n = 0 if self.pixels is None else len(self.pixels)
+        if self.pixels is None or P.shape != (n, 3) or not np.isfinite(P).all():
+            raise ValueError(f"object_points must be finite (N, 3) with N = {n} (one per tracked point), got shape "
+                             f"{P.shape}")
         if not np.isfinite(self.pixels).all():
             return None
         uv = camera.normalize(self.pixels, invalid="nan")

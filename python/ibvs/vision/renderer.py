@@ -33,8 +33,8 @@ from .._core import sim as _sim
 from .images import camera_image_size, check_real, opencv
 from .rays import WIDE_MODELS, Rays
 from .tag import TAG_DICTIONARIES
-from .texture import load_texture
-from .texture import texture as procedural_texture
+from .textures import load_texture
+from .textures import texture as procedural_texture
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
 __all__ = ["KINDS", "Renderer"]
@@ -77,6 +77,8 @@ class Renderer:
       seed         of the noise (a numpy default_rng); reseed() restarts it
       gain, offset a lighting change: every gray level g of the scene becomes gain g + offset before
                    the noise (set_lighting changes it between frames)
+      background   gray level around the plate (default: the kind's, 10 for dots, blobs and textures, 90
+                   for a tag), e.g. 0 for photometric moments (a plate seen whole on a black background)
     A fisheye or omnidirectional camera (distortion "equidistant" or "omnidir": wide is True) is drawn
     through each pixel's bearing, over its whole field of view (beyond 90 degrees off the axis); mask
     is then its image circle (255 inside; the pixels outside are black), or None when every pixel sees.
@@ -103,6 +105,7 @@ class Renderer:
         texture=None,
         gain: float = 1.0,
         offset: float = 0.0,
+        background: Optional[float] = None,
     ):
         cv2 = opencv()
         self.size = camera_image_size(camera)
@@ -181,6 +184,8 @@ class Renderer:
             lo = xy.min(0) - quiet * side / modules
             hi = lo + (modules + 2 * quiet) * side / modules
             self.background = self.TAG_BACKGROUND
+        if background is not None:
+            self.background = check_real(background, "background", 0.0, 255.0)
         self._build_texture(cv2, lo, hi, xy)
         self.wide = camera.distortion in WIDE_MODELS
         self._rays = Rays(camera, self.size) if self.wide else None
@@ -568,3 +573,16 @@ def _tag_side(xy: np.ndarray) -> float:
             "in the order (-,-), (+,-), (+,+), (-,+) (Target.square)"
         )
     return float(side)
+
+
+def lighting_pair(renderer: Renderer, lighting):
+    """((goal gain, offset), (episode gain, offset)): the renderer's own, then `lighting` (checked)."""
+    goal = (renderer.gain, renderer.offset)
+    if lighting is None:
+        return goal, goal
+    if not isinstance(lighting, (tuple, list)) or len(lighting) != 2:
+        raise ValueError(f"lighting must be None or (gain, offset), got {lighting!r}")
+    renderer.set_lighting(*lighting)  # checks it
+    episode = (renderer.gain, renderer.offset)
+    renderer.set_lighting(*goal)
+    return goal, episode

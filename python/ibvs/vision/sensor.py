@@ -10,7 +10,7 @@ from .._core import sim as _sim
 from .dots import DotTracker
 from .keypoints import KeypointTracker
 from .klt import KltTracker
-from .renderer import Renderer
+from .renderer import Renderer, lighting_pair
 from .tag import TagDetector
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -37,10 +37,12 @@ class ImageSensor(_sim.Sensor):
     the run's seed. keep_frames=True keeps every image (frames[k] is frame k; goal_image the goal's)
     for a video; render_seconds and detect_seconds hold each frame's times. With a fisheye or
     omnidirectional lens (Renderer.wide) the default DotTracker (for_target) loses a dot cut by the edge
-    of the image circle (Renderer.mask).
+    of the image circle (Renderer.mask). lighting: None, or (gain, offset): the lighting of the episode's
+    frames (0, 1, ...) when it changed since the goal was taught (the goal's is the renderer's own; see
+    Renderer.set_lighting).
     """
 
-    def __init__(self, renderer: Renderer, detector, keep_frames: bool = False):
+    def __init__(self, renderer: Renderer, detector, keep_frames: bool = False, lighting=None):
         super().__init__()
         if not isinstance(renderer, Renderer):
             raise TypeError(f"renderer must be an ibvs.vision.Renderer, got {type(renderer).__name__}")
@@ -58,13 +60,15 @@ class ImageSensor(_sim.Sensor):
                 f"detector: image_size {detector.size} differs from the camera's {renderer.size}"
             )
         self.renderer, self.detector, self.keep_frames = renderer, detector, bool(keep_frames)
+        self._lighting = lighting_pair(renderer, lighting)
         self.frames: list = []
         self.goal_image = None
         self.render_seconds: list = []
         self.detect_seconds: list = []
 
     @classmethod
-    def for_target(cls, camera, target, kind: str = "dots", keep_frames: bool = False, **renderer_options):
+    def for_target(cls, camera, target, kind: str = "dots", keep_frames: bool = False, lighting=None,
+                   **renderer_options):
         """The default image sensor of a kind in SENSOR_KINDS: Renderer(camera, target, its renderer kind,
         **renderer_options) and a DotTracker (dots), a TagDetector of tag 0 (tag), a KltTracker (klt) or a
         KeypointTracker (keypoints; "texture": the plate's)."""
@@ -79,7 +83,7 @@ class ImageSensor(_sim.Sensor):
             det = KltTracker(r.size)
         else:
             det = KeypointTracker(image_size=r.size)
-        return cls(r, det, keep_frames)
+        return cls(r, det, keep_frames, lighting)
 
     def reset(self, seed: int) -> None:
         self.renderer.reseed(seed)
@@ -87,6 +91,7 @@ class ImageSensor(_sim.Sensor):
         self.render_seconds, self.detect_seconds = [], []
 
     def measure(self, frame: int, pose, projected, twist) -> np.ndarray:
+        self.renderer.set_lighting(*self._lighting[frame >= 0])
         t0 = time.perf_counter()
         image = self.renderer.render(pose, twist)
         self.render_seconds.append(time.perf_counter() - t0)
@@ -111,3 +116,4 @@ class ImageSensor(_sim.Sensor):
             else:
                 self.frames.append(image)
         return track.pixels
+

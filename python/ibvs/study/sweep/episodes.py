@@ -38,8 +38,11 @@ def run_episode(spec: SweepSpec, index: int, scheme: str, params: Optional[dict]
         servo.angle_wrap = setup.angle_wrap
     # The noise seed is the episode's, shared by every scheme.
     noise_seed = int(np.random.default_rng([int(spec.seed), int(index), 1]).integers(0, 2**63))
-    sensor = None if factory is not None else schemes.sensor_for(scheme, setup.camera, setup.target)
-    r = sim.run(servo, setup.camera if sensor is None else sensor.renderer.camera, target, start, setup.goal_for_run(), robot=setup.robot,
+    # klt, keypoints: their image sensor; photometric: its block measured in rendered images
+    sensor = schemes.sensor_for(factory or scheme, setup.camera, setup.target)
+    camera = setup.camera if sensor is None else sensor.renderer.camera
+    camera, target = schemes.dense_target(factory or scheme, camera, target)
+    r = sim.run(servo, camera, target, start, setup.goal_for_run(), robot=setup.robot,
                 duration=setup.duration, noise=p["noise"], latency=int(p["latency"]), depth=setup.depth,
                 seed=noise_seed, tolerance=setup.tolerances()[0], tolerance_px=setup.tolerances()[1],
                 depth_scale=p["depth_scale"],
