@@ -55,7 +55,9 @@ def test_command_never_exceeds_the_limits_and_keeps_its_direction(setup):
     assert not (((q_next > lim.q_max) & (out > 0)) | ((q_next < lim.q_min) & (out < 0))).any()
     if "ramped" not in cmd.reason:
         # out = s dq with 0 <= s <= 1: parallel, same sense, not longer
-        s = float(out @ dq) / float(dq @ dq) if dq.any() else 0.0
+        # (dq / m: a tiny request, 1e-281, whose squares underflow to 0 is still a direction)
+        m = float(np.abs(dq).max())
+        s = float((out / m) @ (dq / m)) / float((dq / m) @ (dq / m)) if m > 0 else 0.0
         assert -TOL <= s <= 1 + TOL
         np.testing.assert_allclose(out, s * dq, rtol=0, atol=1e-12 * (1 + np.abs(dq).max()))
     assert cmd.clamped == (not np.array_equal(out, dq))

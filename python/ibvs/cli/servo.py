@@ -15,6 +15,10 @@ import argparse
 from . import args as a
 
 PROG = "ibvs servo"
+#: What the exit statuses 0 and 1 mean for `ibvs servo` (its --help epilog and docs/conventions.md).
+EXIT_0 = "a normal end (the duration, convergence, the end of a video or bag); the robot was stopped"
+EXIT_1 = ("a safe stop: the watchdog (no frame or no robot state in time), lost features, a robot failure or an "
+          "error in the loop; one line says what happened and where the log is")
 
 
 def add_parser(sub) -> None:
@@ -22,17 +26,20 @@ def add_parser(sub) -> None:
     s = sub.add_parser("servo", help="run the real-time servo loop of a config file (camera -> servo -> robot)",
                        description="Run the servo loop of a TOML config: frames from a camera, a video, a bag or "
                                    "the renderer, tracked, servoed and sent to a robot (ibvs.robot) at the camera's "
-                                   "rate; timing printed at the end and logged. See docs/servo-loop.md.")
+                                   "rate; timing printed at the end and logged. See docs/servo-loop.md.",
+                       epilog=a.exit_status(EXIT_0, EXIT_1, "; the robot was stopped, then disconnected"))
     s.add_argument("config", type=a.in_file, metavar="CONFIG.toml", help="the loop's config (docs/servo.toml)")
     s.add_argument("--dry-run", action="store_true", help="compute and log the commands, send none (overrides "
                                                           "[loop] dry_run)")
     s.add_argument("--duration", type=a.number(0, 1e7, open_lo=True), metavar="S",
                    help="seconds to run (overrides [loop] duration)")
-    # OUTPUT OPTION (for the lead): with the finite branch's helper merged, this becomes
-    # a.add_output(s, "--log", type=a.out_file(".jsonl", ".json"), metavar=..., help=...); the config's
-    # [loop] log / record / rerun paths are checked by _check_outputs with the same out_file.
-    s.add_argument("--log", type=a.out_file(".jsonl", ".json"), metavar="FILE.jsonl",
-                   help="the per-frame log (overrides [loop] log)")
+    # The config's [loop] log / record / rerun paths are checked by _check_outputs with the same out_file.
+    a.add_output(s, "--log", type=a.out_file(".jsonl", ".json"), metavar="FILE.jsonl",
+                 help="the per-frame log (overrides [loop] log)")
+    a.add_output(s, "--record", type=a.out_file(".mcap"), metavar="RUN.mcap",
+                 help="record the run as a ROS 2 bag (overrides [loop] record; the ros extra)")
+    a.add_output(s, "--rerun", type=a.out_file(".rrd"), metavar="RUN.rrd",
+                 help="record the run for Rerun (overrides [loop] rerun; the rerun extra)")
 
 
 def _check_outputs(options) -> None:
@@ -61,8 +68,9 @@ def command(args) -> int:
         cfg.options.dry_run = True
     if args.duration is not None:
         cfg.options.duration = args.duration
-    if args.log is not None:
-        cfg.options.log = args.log
+    for key in ("log", "record", "rerun"):
+        if getattr(args, key) is not None:
+            setattr(cfg.options, key, getattr(args, key))
     _check_outputs(cfg.options)
     if cfg.options.record is not None:
         a.require(PROG, "rosbags", "[loop] record")
