@@ -35,6 +35,7 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
+from ..finite import finite_within
 from .clock import Clock, RealClock
 from .recording import BagRecording, LoopLog, RerunRecording
 from .timing import Timing
@@ -266,8 +267,8 @@ class ServoLoop:
             if core.state == "stopped":
                 log.write("event", t=clock.now(), what=f"features lost: {core.last_error}")
                 raise _Stop("lost", f"features lost ({core.last_error}); ramped to zero")
-            if converge is not None and cmd is not None and core.pixels is not None and np.isfinite(core.pixels).all():
-                if np.linalg.norm(core.pixels - core.desired, axis=1).max() <= converge:
+            if converge is not None and cmd is not None and core.pixels is not None:
+                if finite_within(np.linalg.norm(core.pixels - core.desired, axis=1), converge):
                     raise _Stop("converged", f"every point within {converge:g} px of its goal at frame "
                                              f"{frame.index}")
 

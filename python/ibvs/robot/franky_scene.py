@@ -23,6 +23,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from ..finite import finite_within
 from ..vision.sources import Frame, FrameSource
 from .base import RobotError
 
@@ -82,7 +83,7 @@ class FrankyScene:
                 or abs(camera.v0 - (self.height - 1) / 2) > 1e-9:
             raise ValueError("camera must have square pixels and its principal point centred (MuJoCo renders so)")
         P = np.asarray(points, dtype=float)
-        if P.ndim != 2 or P.shape[1] != 3 or not np.isfinite(P).all() or np.abs(P[:, 2]).max() > 0:
+        if P.ndim != 2 or P.shape[1] != 3 or not finite_within(P, np.inf) or np.any(P[:, 2] != 0):
             raise ValueError("points must be (N, 3) finite dot centres in the target's z = 0 plane")
         T_wo = np.asarray(target_pose, dtype=float)
         if T_wo.shape != (4, 4) or not np.isfinite(T_wo).all():

@@ -171,7 +171,7 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
     reasons = []
     # The velocity limit: one scale for all joints (direction kept).
     ratio = np.abs(req) / limits.dq_max
-    s_v = 1.0 if ratio.max() <= 1.0 + ROUNDING else float(1.0 / ratio.max())
+    s_v = 1.0 if np.all(ratio <= 1.0 + ROUNDING) else float(1.0 / ratio.max())  # dq validated finite above
     if s_v < 1.0:
         reasons.append(f"joint {int(np.argmax(ratio))} speed {req[int(np.argmax(ratio))]:.4g} > "
                        f"dq_max {limits.dq_max[int(np.argmax(ratio))]:.4g}")
@@ -192,7 +192,7 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
         reasons.append(f"not reachable within ddq_max in {dt:.4g} s: ramped {k:.4g} of the way from the last command")
         # The last command may lie outside dq_max (a measured velocity): the speed limit comes first.
         over = np.abs(out) / limits.dq_max
-        if over.max() > 1.0:
+        if np.any(over > 1.0):
             out = out / over.max()
     out = np.where(np.abs(out) < 1e-300, 0.0, out)  # no denormals
 

@@ -15,6 +15,7 @@ from typing import Optional
 import numpy as np
 
 from .._core import CameraModel, PlanarPose
+from ..finite import finite_within
 from .images import opencv
 
 __all__: list = []  # helpers of the trackers
@@ -67,7 +68,7 @@ def plausible(H: Optional[np.ndarray], reference: np.ndarray, size) -> bool:
     if H is None or not np.isfinite(H).all():
         return False
     q = map_points(H, reference)
-    if not np.isfinite(q).all() or np.abs(q).max() > 10 * max(size):
+    if not finite_within(q, 10 * max(size)):
         return False
     p = np.column_stack([reference, np.ones(len(reference))]) @ H.T
     return bool((p[:, 2] * np.sign(p[0, 2]) > 0).all() and np.linalg.det(H) * p[0, 2] ** -3 > 0)

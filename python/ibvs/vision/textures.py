@@ -15,6 +15,7 @@ from typing import Tuple
 
 import numpy as np
 
+from ..finite import finite_within
 from .images import opencv
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -93,6 +94,6 @@ def load_texture(source, name: str = "texture") -> np.ndarray:
         raise ValueError(f"{name} must be a 2-D (height, width) or (height, width, 3) image of at least 2x2 "
                          f"pixels, got shape {source.shape}")
     img = img.astype(np.float32)
-    if not np.isfinite(img).all() or img.min() < 0 or img.max() > 255:
+    if not (finite_within(img, np.inf) and np.all((img >= 0) & (img <= 255))):
         raise ValueError(f"{name}: gray levels must be finite and in [0, 255]")
     return img

@@ -23,6 +23,7 @@ from typing import Optional
 import numpy as np
 
 from ..._core import JointMapping, theta_u
+from ...finite import finite_within
 
 __all__ = ["PhysicsResult", "run", "run_loop", "overshoot"]
 
@@ -133,7 +134,7 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
                     break
                 e = (px - desired).ravel()
                 rows["error"].append(e)
-                if np.linalg.norm(px - desired, axis=1).max() <= tolerance_px:
+                if finite_within(np.linalg.norm(px - desired, axis=1), tolerance_px):
                     outcome, first = "converged", len(rows["time"]) - 1
                     rows["qdot"].append(np.zeros(arm.dof))
                     break
