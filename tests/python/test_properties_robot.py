@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from ibvs.robot import JointState, LimitError, Limits, check_command
@@ -35,8 +35,13 @@ def setups(draw):
     return lim, q, last, dq, dt
 
 
+_UNIT = Limits([-1.0, -1.0], [1.0, 1.0], [1.0, 1.0], [1.0, 1.0])
+
+
 @settings(max_examples=150, deadline=None)
 @given(setups())
+@example((_UNIT, np.zeros(2), np.zeros(2), np.array([1e-281, 0.0]), 0.001))  # its squares underflow
+@example((_UNIT, np.zeros(2), np.zeros(2), np.array([1.42141081e-306, 0.0]), 0.001))  # a denormal, sent as 0
 def test_command_never_exceeds_the_limits_and_keeps_its_direction(setup):
     lim, q, last, dq, dt = setup
     state = JointState(q, last, 0.0)

@@ -194,7 +194,10 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
         over = np.abs(out) / limits.dq_max
         if np.any(over > 1.0):
             out = out / over.max()
-    out = np.where(np.abs(out) < 1e-300, 0.0, out)  # no denormals
+    tiny = (np.abs(out) < 1e-300) & (out != 0.0)
+    if tiny.any():  # no denormals to the robot: sent as 0, and said so
+        out = np.where(tiny, 0.0, out)
+        reasons.append(f"joint {int(np.flatnonzero(tiny)[0])} speed below 1e-300 sent as 0")
 
     # Position limits within the next period: refuse (moving outwards only).
     q_next = q + out * dt
@@ -212,5 +215,5 @@ def _check(dq, state, limits, dt, last_dq, kinematics) -> Command:
             raise LimitError(f"refused: the camera would reach {np.round(p_next, 4).tolist()}, outside the "
                              f"workspace box within {dt:.4g} s")
     out.flags.writeable = False
-    clamped = bool(reasons) and not np.array_equal(out, req)
+    clamped = not np.array_equal(out, req)
     return Command(dq=out, clamped=clamped, reason="; ".join(reasons) if clamped else "", requested=req)
