@@ -21,6 +21,9 @@ from ibvs.robot import LimitError, Limits, RobotError, open_robot  # noqa: E402
 from ibvs.robot.franky import FrankyRobot, franka_limits  # noqa: E402
 
 RATE = 30.0
+# franky-sim on a loaded 2-core machine (CI compiles beside it) can miss a 33 ms period: the tests declare the link
+# lost after 0.5 s without a new state (a real arm's default stays one period, docs/robots.md).
+STALE = 0.5
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +35,7 @@ def server():
 
 @pytest.fixture
 def robot(server):
-    r = FrankyRobot(server[1], rate=RATE, clock="robot")
+    r = FrankyRobot(server[1], rate=RATE, clock="robot", stale_after=STALE)
     r.connect()
     yield r
     r.disconnect()
@@ -126,23 +129,23 @@ def test_a_busy_robot_times_out_with_one_line(server, robot):
     assert not other.connected
 
 
-def test_franky_sim_killed_mid_run_is_noticed_within_two_periods():
+def test_franky_sim_killed_mid_run_is_noticed_within_stale_after():
     proc, host = franky_sim_server.start()
     try:
-        r = FrankyRobot(host, rate=RATE, clock="robot")
+        r = FrankyRobot(host, rate=RATE, clock="robot", stale_after=STALE)
         r.connect()
         run(r, np.array([0.05, 0, 0, 0, 0, 0, 0]), 0.2)
     finally:
         franky_sim_server.stop(proc)
     # A loop reads every period. The first read after the kill may still bring the last state the server sent
     # (libfranka's thread received it after the previous read); the state then stops changing, and a read
-    # stale_after (one period) later raises: the dead server is noticed within two periods of the kill.
-    deadline = time.monotonic() + 2.0 / RATE + 0.02
+    # stale_after later raises: the dead server is noticed within stale_after and a period of the kill.
+    deadline = time.monotonic() + STALE + 1.0 / RATE + 0.02
     with pytest.raises(RobotError, match="no new state from the robot .* the link is lost"):
         while True:
             time.sleep(0.25 / RATE)
             r.state()
-            assert time.monotonic() < deadline, "the dead server was not noticed within two periods"
+            assert time.monotonic() < deadline, "the dead server was not noticed within stale_after and a period"
     with pytest.raises(RobotError, match="lost"):
         r.send_joint_velocity(np.zeros(7))
     r.stop()
