@@ -27,7 +27,7 @@ def _sweep(out: Path, episodes: int, *extra: str) -> subprocess.Popen:
                              *ARGS, *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-def _wait_for(condition, proc: subprocess.Popen, what: str, timeout: float = 120.0) -> None:
+def _wait_for(condition, proc: subprocess.Popen, what: str, timeout: float = 120.0, poll: float = 0.05) -> None:
     """Poll until condition() (a generous timeout: the machine may be loaded; not a timing test)."""
     deadline = time.monotonic() + timeout
     while not condition():
@@ -36,7 +36,7 @@ def _wait_for(condition, proc: subprocess.Popen, what: str, timeout: float = 120
         if time.monotonic() > deadline:
             proc.kill()
             pytest.fail(f"no {what} within {timeout:g} s")
-        time.sleep(0.05)
+        time.sleep(poll)
 
 
 def _holds_lock(out: Path, pid: int):
@@ -111,9 +111,11 @@ def test_a_second_writer_is_refused_while_a_dask_sweep_runs(tmp_path):
 
 def test_sigkill_mid_sweep_then_resume_loses_and_duplicates_nothing(tmp_path):
     out = tmp_path / "killed.csv"
-    episodes = 160
-    first = _sweep(out, episodes, "--jobs", "2")
-    _wait_for(lambda: _rows(out) >= 10, first, "rows")
+    # One episode per task and enough of them (~1 s of work) that the kill lands mid-run even when this process is
+    # starved on a loaded machine (160 episodes in batches of 20 once all finished before the kill in CI).
+    episodes = 600
+    first = _sweep(out, episodes, "--jobs", "2", "--batch", "1")
+    _wait_for(lambda: _rows(out) >= 10, first, "rows", poll=0.005)
     first.send_signal(signal.SIGKILL)
     first.communicate(timeout=60)
     assert lock_path(out).exists()  # left behind by the killed process, with its pid: no obstacle
