@@ -161,10 +161,10 @@ def _span(gs) -> str:
 def table(res) -> str:
     rg = ranges(res)
     head = "| delay (ms) |" + "".join(f" {s} | {s}, compensated |" for s in res["schemes"])
-    lines = [head + " MuJoCo testbed |", "|---:|" + "---|---|" * len(res["schemes"]) + "---|"]
+    lines = [head, "|---:|" + "---|---|" * len(res["schemes"])]
     for d in res["delays_ms"]:
         cells = "".join(f" {_span(rg[(s, d, False)])} | {_span(rg[(s, d, True)])} |" for s in res["schemes"])
-        lines.append(f"| {d:g} |{cells} (physics helper) |")
+        lines.append(f"| {d:g} |{cells}")
     return "\n".join(lines)
 
 

@@ -240,6 +240,32 @@ def test_compensation_removes_the_delay_overshoot():
     assert overshoot["raw"] > 0.05 and overshoot["compensated"] < 0.05, overshoot
 
 
+def test_compensated_polar_loop_converges_on_the_servos_own_depths():
+    """The predictor's depths stay with the predictor: the servo keeps its constant 0.6 m. Handed the predicted
+    per-point depths instead (a millimetre apart), the polar law - condition ~2000 at this start of the latency
+    study, 40 mm and 17 degrees off the goal - turned them into another twist and diverged at every delay."""
+    start = lw.sim.pose(t=(0.03, -0.02, 0.02), r=(0.0, 0.0, 0.3))
+    for delay in (0.025, 0.1):
+        w = lw.world(latency=delay, start=start)
+        predictor = FeaturePredictor(delay, kinematics=w.model)
+        loop, robot = lw.loop(w, options=LoopOptions(duration=8.0, converge_px=0.5, signals=False),
+                              predictor=predictor, gain=2.0)
+        seen = []
+
+        class Watched:  # the servo, noting the depths it is given
+            def __init__(self, servo):
+                self.servo = servo
+
+            def update(self, uv, depth, *rest):
+                seen.append(np.array(depth))
+                return self.servo.update(uv, depth, *rest)
+
+        loop.core.servo = Watched(loop.core.servo)
+        report = loop.run()
+        assert report.outcome == "converged", (delay, report.outcome)
+        assert seen and all(np.array_equal(d, np.full(4, 0.6)) or np.array_equal(d, 0.6) for d in seen)
+
+
 def test_a_clock_only_the_loop_advances_is_enough():
     # The loop on a SimClock runs without sleeping: 10 s of loop in far less (nothing asserted on time).
     w = lw.world()

@@ -25,7 +25,8 @@ messages, parameters and the clock in and out. The servo loop (ibvs.loop) runs t
 set_camera(CameraModel), twist_of_image(gray image, stamp), ramp_twist(), joint_velocities(twist) are
 what on_camera_info, on_image and tick do between the messages. With a latency predictor
 (ibvs.loop.latency.FeaturePredictor: `predictor`) the points are predicted over the capture-to-command
-delay before the servo runs; without one (the default) nothing changes.
+delay before the servo runs, and the servo keeps its own depths (the predicted ones are not handed on: see
+twist_of_image); without one (the default) nothing changes.
 """
 
 from __future__ import annotations
@@ -238,8 +239,13 @@ class ServoNodeCore:
             return self.ramp_twist()
         depth = self.depth
         if self.predictor is not None and stamp is not None:
+            # The features are predicted; the depths the servo is given stay its own model (a constant or per
+            # point). Handing on the predicted depths changes that model by a per-point millimetre or so, and a
+            # law whose Jacobian is ill-conditioned (the polar law 40 mm / 17 deg off the goal: condition ~2000)
+            # turns that into a different twist: the compensated polar loop then diverged at every delay
+            # (docs/servo-loop.md, "Latency").
             try:
-                uv, depth = self.predictor.predict(uv, depth, stamp)
+                uv, _ = self.predictor.predict(uv, depth, stamp)
             except ValueError as e:  # predicted out of the camera's field: as lost features
                 self.last_error = str(e)
                 return self.ramp_twist()
