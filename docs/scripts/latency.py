@@ -11,7 +11,7 @@ delay and gain, once uncompensated and once with the features predicted over the
 its goal by the end) and the overshoot: the largest excursion of the camera's pose error past the goal,
 per component, as a share of that component's initial error (the components over 10 % of the largest).
 
-    python docs/scripts/latency.py --delays 0 25 50 75 100 125 150 --out docs/figures/latency.png  # ~4 min
+    python docs/scripts/latency.py --delays 0 25 50 75 100 125 150 --out docs/figures/latency.png  # ~5 min
 
 prints the Markdown table of docs/servo-loop.md and writes the figure and docs/figures/latency.json.
 """
