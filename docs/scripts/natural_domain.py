@@ -16,7 +16,7 @@ Every scheme runs through ibvs.sim.run with gain GAIN for DURATION s (ending ear
 for the dense schemes the true ones, are within 0.25 px of the goal's); a run succeeds when at its end the true
 corners (History.projected) are within 1 px of their goal image.
 
-python docs/scripts/natural_domain.py [TRIALS] (default 2; about 5 minutes of CPU) prints the table and writes
+python docs/scripts/natural_domain.py [TRIALS] (default 2; about 2 minutes of CPU) prints the table and writes
 docs/figures/direct_error_images.png (|I - I*| at the start and the end of a photometric run);
 python docs/scripts/natural_domain.py 1 quick runs one level of one displacement for 1 s (the docs test) and
 writes the figure into the working directory.

@@ -145,7 +145,8 @@ def test_bad_input(renderer):
     with pytest.raises(ValueError, match="image: only 0 corners"):
         klt.reset(np.full((480, 640), 100, np.uint8), projected(np.eye(4)))
     for name, value in (("max_features", 0), ("window", 2.5), ("fb_threshold", math.nan), ("min_inliers", 3),
-                        ("redetect_below", 2.0), ("image_size", (640,)), ("levels", True)):
+                        ("redetect_below", 2.0), ("image_size", (640,)), ("levels", True),
+                        ("min_correlation", 1.5), ("min_correlation", math.nan)):
         with pytest.raises((TypeError, ValueError), match=name):
             vision.KltTracker(**{"image_size": (640, 480), name: value})
     with pytest.raises(ValueError, match="reference: only 0 keypoints"):
@@ -154,6 +155,9 @@ def test_bad_input(renderer):
         vision.KeypointTracker(np.full((100, 100), np.nan))
     with pytest.raises(ValueError, match="detector"):
         vision.KeypointTracker(detector="sift")
+    for value in (-2.0, math.inf, "0.8"):
+        with pytest.raises((TypeError, ValueError), match="min_correlation"):
+            vision.KeypointTracker(min_correlation=value)
     with pytest.raises(ValueError, match="set_reference"):
         vision.KeypointTracker().detect(good)
     kp = vision.KeypointTracker(vision.texture(), image_size=(640, 480))
@@ -166,6 +170,57 @@ def test_bad_input(renderer):
         kp.pose(CAM, np.zeros((3, 3)))
     with pytest.raises(TypeError, match="camera"):
         kp.pose("camera", TARGET.points)
+
+
+def test_correlation_tells_the_right_homography_from_a_wrong_one_and_survives_an_occluder(renderer):
+    from ibvs.vision.planar import correlation
+
+    ref_pose = np.eye(4)
+    ref, ref_px = renderer.render(ref_pose), projected(ref_pose)
+    for k, pose in enumerate(approach(6, rate=0.5)):
+        img, px = renderer.render(pose), projected(pose)
+        H = cv2.findHomography(ref_px, px, 0)[0]
+        assert correlation(cv2, ref, ref_px, H, img) > 0.95, k
+        off = cv2.findHomography(ref_px, px + [[6.0, -4.0], [-5.0, 3.0], [4.0, 6.0], [-6.0, -5.0]], 0)[0]
+        assert correlation(cv2, ref, ref_px, off, img) < 0.8, k  # corners 5-8 px off
+        shifted = np.array([[1.0, 0, 20], [0, 1, 0], [0, 0, 1]]) @ H  # the whole plate 20 px aside
+        assert correlation(cv2, ref, ref_px, shifted, img) < 0.5, k
+    # a quarter of the plate hidden by unrelated texture: the median over its tiles still vouches for H
+    hidden = img.copy()
+    (x0, y0), (x1, y1) = px.min(0).astype(int), px.max(0).astype(int)
+    ym, xm = (y0 + y1) // 2, (x0 + x1) // 2
+    hidden[y0:ym, x0:xm] = vision.texture((xm - x0, ym - y0), seed=9)
+    assert correlation(cv2, ref, ref_px, H, hidden) > 0.9
+    # a blank image, an image of another texture: no correlation
+    assert correlation(cv2, ref, ref_px, H, np.full_like(img, 90)) == 0.0
+    other = vision.Renderer(CAM, TARGET, "texture", texture=vision.texture(seed=5), noise=2.0).render(pose)
+    assert abs(correlation(cv2, ref, ref_px, H, other)) < 0.3
+
+
+def test_keypoints_on_a_plate_far_smaller_than_taught_are_right_or_not_found():
+    """The goal image's plate ~160 px wide, the plate now 55-70 px: few keypoints match at that scale and a
+    homography fitted to a few wrong ones was reported as detected (corners 20-500 px off) before the
+    correlation check."""
+    cam = ibvs.CameraModel(400.0, 400.0, 159.5, 119.5, 0.0, 0.0, 320.0, 240.0)
+    target = sim.Target.square(0.2, np.eye(4))
+    lit = vision.Renderer(cam, target, "texture", noise=2.0, seed=1)
+    dim = vision.Renderer(cam, target, "texture", noise=2.0, seed=2, gain=0.7, offset=20.0)
+    goal = sim.pose(t=(0.0, 0.0, -0.5))
+    kp = vision.KeypointTracker(lit.render(goal), projected(goal, target, cam), image_size=(320, 240))
+    rng = np.random.default_rng(1)
+    errors, found = [], 0
+    for k in range(60):
+        tilt = rng.uniform(-0.4, 0.4, 2)
+        pose = sim.pose(r=(tilt[0], tilt[1], rng.uniform(-np.pi, np.pi))) @ sim.pose(
+            t=(rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), -rng.uniform(1.6, 2.0)))
+        t = kp.detect((dim if k % 2 else lit).render(pose))
+        if t.lost:
+            assert np.isnan(t.pixels).all() and kp.confidence == 0.0
+            continue
+        found += 1
+        assert kp.correlation >= kp.min_correlation
+        errors.append(np.abs(t.pixels - projected(pose, target, cam)).max())
+    assert found >= 20 and max(errors) < 10.0, (found, max(errors))
 
 
 @settings(max_examples=25, deadline=None)

@@ -8,20 +8,23 @@ reference warped by it, corners of the reference tracked from there by KLT: keyp
 are located to a pixel or worse, the refined corners of the plate to a few hundredths). The target's points
 are their reference pixels mapped by it.
 confidence = inliers / matches of the last image; the target is "not_found" (every point) when fewer than
-min_inliers matches support the homography or it is not one a plate in front of the camera gives. Each
+min_inliers matches support the homography, it is not one a plate in front of the camera gives, or the
+reference warped by it does not look like the image (ibvs.vision.planar.correlation below min_correlation:
+a homography fitted to a few wrong matches, which a plate seen far smaller than taught can give). Each
 image is searched on its own (no prediction from the last one): a target found again after a loss is
 reported again, with the same correspondences.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Optional
 
 import numpy as np
 
 from .images import check_int, check_real, opencv
-from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask, refine
+from .planar import PlanarTarget, check_gray, check_pixels, correlation, map_points, plausible, polygon_mask, refine
 from .track import Track
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -35,7 +38,7 @@ class KeypointTracker(PlanarTarget):
     """A planar target matched in every image to a reference image of it.
 
     KeypointTracker(reference=None, points=None, region=None, detector="orb", n_features=500,
-                    ratio=0.8, ransac_threshold=3.0, min_inliers=12, image_size=None)
+                    ratio=0.8, ransac_threshold=3.0, min_inliers=12, min_correlation=0.8, image_size=None)
       reference         uint8 (h, w) image of the target (a scan of the printed picture, the goal image...);
                         None: set it later with set_reference (the image sensor uses the goal image)
       points            (N, 2) pixels of the reference to report (default: its four corners, (-0.5, -0.5)
@@ -45,15 +48,19 @@ class KeypointTracker(PlanarTarget):
       detector          "orb" or "akaze"; n_features: ORB's keypoint budget per image
       ratio             Lowe's ratio test: a match is kept when its distance < ratio x the second best's
       ransac_threshold  px; min_inliers: inliers (>= 4) needed to report the target
+      min_correlation   in [-1, 1]: the least normalised cross-correlation of the reference's region warped
+                        by the homography with the image for the target to be reported (-1: no check)
       image_size        None, or (width, height) every image must have
     detect(image) -> Track (status "detected" or "not_found" per point); after it: homography (reference ->
-    image), matches, inliers, confidence (inliers / matches, 0 when not found); region(), pose(camera,
+    image), matches, inliers, confidence (inliers / matches, 0 when not found), correlation (of the
+    last homography, NaN without one); region(), pose(camera,
     object_points): see PlanarTarget. A reference with fewer than min_inliers keypoints in its region is
     refused (ValueError naming reference).
     """
 
     def __init__(self, reference=None, points=None, region=None, detector: str = "orb", n_features: int = 500,
-                 ratio: float = 0.8, ransac_threshold: float = 3.0, min_inliers: int = 12, image_size=None):
+                 ratio: float = 0.8, ransac_threshold: float = 3.0, min_inliers: int = 12,
+                 min_correlation: float = 0.8, image_size=None):
         cv2 = opencv()
         if detector not in KEYPOINT_DETECTORS:
             raise ValueError(f"detector must be one of {KEYPOINT_DETECTORS}, got {detector!r}")
@@ -62,6 +69,7 @@ class KeypointTracker(PlanarTarget):
         self.ratio = check_real(ratio, "ratio", 0.05, 1.0)
         self.ransac_threshold = check_real(ransac_threshold, "ransac_threshold", 1e-3, 1000.0)
         self.min_inliers = check_int(min_inliers, "min_inliers", 4, 100000)
+        self.min_correlation = check_real(min_correlation, "min_correlation", -1.0, 1.0)
         if image_size is not None and (
                 not isinstance(image_size, (tuple, list)) or len(image_size) != 2
                 or not all(isinstance(s, (int, np.integer)) and not isinstance(s, bool) and 16 <= s <= 8192
@@ -79,7 +87,7 @@ class KeypointTracker(PlanarTarget):
         self._ref = None
         self.pixels = None
         self.homography: Optional[np.ndarray] = None
-        self.matches, self.inliers, self.confidence = 0, 0, 0.0
+        self.matches, self.inliers, self.confidence, self.correlation = 0, 0, 0.0, float("nan")
         if reference is not None:
             self.set_reference(reference, points, region)
         elif points is not None or region is not None:
@@ -101,6 +109,7 @@ class KeypointTracker(PlanarTarget):
                              f" = {self.min_inliers}): a textureless or too small reference image")
         self._ref = (np.array([k.pt for k in kp], np.float64), desc)
         self._points = pts.copy()
+        self._region = poly.copy()
         self._reference = ref.copy()
         corners = cv2.goodFeaturesToTrack(ref, 300, 0.01, 5, mask=mask, blockSize=5)
         self._anchors = np.zeros((0, 2)) if corners is None else corners.reshape(-1, 2).astype(np.float64)
@@ -114,7 +123,7 @@ class KeypointTracker(PlanarTarget):
         self.size = (image.shape[1], image.shape[0])
         t0 = time.perf_counter()
         n = len(self._points)
-        self.homography, self.matches, self.inliers, self.confidence = None, 0, 0, 0.0
+        self.homography, self.matches, self.inliers, self.confidence, self.correlation = None, 0, 0, 0.0, math.nan
         kp, desc = self._features.detectAndCompute(image, None)
         H = None
         if desc is not None and len(kp) >= 2:
@@ -134,7 +143,10 @@ class KeypointTracker(PlanarTarget):
                             cv2, self._reference, self._anchors, H, image, 21, self.ransac_threshold)
                         if fine is not None and fine[2].sum() >= self.min_inliers:
                             H = fine[0]
-        if H is None or self.inliers < self.min_inliers or not plausible(H, self._points, self.size):
+        if H is not None and self.inliers >= self.min_inliers and plausible(H, self._points, self.size):
+            self.correlation = correlation(cv2, self._reference, self._region, H, image)
+        if (H is None or self.inliers < self.min_inliers or not plausible(H, self._points, self.size)
+                or not self.correlation >= self.min_correlation):
             self.pixels = np.full((n, 2), np.nan)
             self.inliers = 0 if H is None else self.inliers
             return Track(self.pixels.copy(), ("not_found",) * n, time.perf_counter() - t0)

@@ -14,19 +14,21 @@ Shi & Tomasi's corners, cv2.goodFeaturesToTrack):
      the target's points are their first-image pixels mapped by H;
   4. when fewer than redetect_below x the first image's count remain, new corners are detected inside
      the target's polygon (away from the live ones) and given reference positions by H^-1.
-The target is lost (every point "lost_features") when fewer than min_inliers features support H or H
-is not one a plate in front of the camera gives; it stays lost until reset.
+The target is lost (every point "lost_features") when fewer than min_inliers features support H, H is not
+one a plate in front of the camera gives, or the first image's target warped by H does not look like this
+image (ibvs.vision.planar.correlation below min_correlation); it stays lost until reset.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Optional
 
 import numpy as np
 
 from .images import check_int, check_real, opencv
-from .planar import PlanarTarget, check_gray, check_pixels, map_points, plausible, polygon_mask, refine
+from .planar import PlanarTarget, check_gray, check_pixels, correlation, map_points, plausible, polygon_mask, refine
 from .track import Track
 
 # What ibvs.vision re-exports (and documents); the other names here are its own helpers.
@@ -37,7 +39,7 @@ class KltTracker(PlanarTarget):
     """KLT features on a planar target, and the target's points through their homography.
 
     KltTracker(image_size, max_features=300, quality=0.01, min_distance=5, window=21, levels=3,
-               fb_threshold=1.0, ransac_threshold=2.0, min_inliers=10, redetect_below=0.6)
+               fb_threshold=1.0, ransac_threshold=2.0, min_inliers=10, redetect_below=0.6, min_correlation=0.8)
       image_size      (width, height) of the images
       max_features    corners detected in the target's polygon (cv2.goodFeaturesToTrack)
       quality         their minimum quality relative to the best corner; min_distance px between them
@@ -46,6 +48,8 @@ class KltTracker(PlanarTarget):
       ransac_threshold px: cv2.findHomography's RANSAC reprojection threshold
       min_inliers     features (>= 4) below which the target is lost
       redetect_below  fraction of the first count of features below which new ones are detected
+      min_correlation in [-1, 1]: the least normalised cross-correlation of the first image's target warped
+                      by H with this image (-1: no check); correlation: the last frame's
     reset(image, pixels) starts on the first image, pixels (N, 2) the target's points in it (N >= 3: a
     user clicking on the plate's corners; features are taken inside their polygon); track(image) -> Track
     (status "tracked", or "lost_features" for every point). features: the live features now (M, 2);
@@ -54,7 +58,7 @@ class KltTracker(PlanarTarget):
 
     def __init__(self, image_size, max_features: int = 300, quality: float = 0.01, min_distance: float = 5.0,
                  window: int = 21, levels: int = 3, fb_threshold: float = 1.0, ransac_threshold: float = 2.0,
-                 min_inliers: int = 10, redetect_below: float = 0.6):
+                 min_inliers: int = 10, redetect_below: float = 0.6, min_correlation: float = 0.8):
         if (not isinstance(image_size, (tuple, list)) or len(image_size) != 2
                 or not all(isinstance(s, (int, np.integer)) and not isinstance(s, bool) and 16 <= s <= 8192
                            for s in image_size)):
@@ -69,6 +73,8 @@ class KltTracker(PlanarTarget):
         self.ransac_threshold = check_real(ransac_threshold, "ransac_threshold", 1e-3, 1000.0)
         self.min_inliers = check_int(min_inliers, "min_inliers", 4, 100000)
         self.redetect_below = check_real(redetect_below, "redetect_below", 0.0, 1.0)
+        self.min_correlation = check_real(min_correlation, "min_correlation", -1.0, 1.0)
+        self.correlation = math.nan
         self._prev = None
         self.pixels = None
         self.homography: Optional[np.ndarray] = None
@@ -146,6 +152,10 @@ class KltTracker(PlanarTarget):
                     self._features, self._anchors = found[keep], self._anchors[keep]
         if (Hm is None or len(self._features) < self.min_inliers
                 or not plausible(Hm, self._reference, self.size)):
+            self._lost = True
+            return
+        self.correlation = correlation(cv2, self._first, self._reference, Hm, image)
+        if not self.correlation >= self.min_correlation:
             self._lost = True
             return
         self.homography = Hm / Hm[2, 2]
