@@ -195,12 +195,24 @@ def test_correlation_tells_the_right_homography_from_a_wrong_one_and_survives_an
     assert correlation(cv2, ref, ref_px, H, np.full_like(img, 90)) == 0.0
     other = vision.Renderer(CAM, TARGET, "texture", texture=vision.texture(seed=5), noise=2.0).render(pose)
     assert abs(correlation(cv2, ref, ref_px, H, other)) < 0.3
+    # KLT's reference is its whole first image: taught from 1.5 m (an 80 px plate), seen from 0.4 m tilted by 30
+    # degrees, the first image's far corners map through infinity while the plate is sharp and in view; the
+    # smoothing follows the plate's magnification (the whole image's gave a 1117 px Gaussian and 0)
+    far = sim.pose(t=(0.0, 0.0, -1.0))
+    near = TARGET.pose @ sim.pose(r=(0.0, -math.radians(30), 0.0)) @ sim.pose(t=(0.0, 0.0, -0.4))
+    ref, ref_px, img, px = renderer.render(far), projected(far), renderer.render(near), projected(near)
+    assert np.ptp(ref_px, 0).max() < 90 and np.ptp(px, 0).min() > 200
+    H = cv2.findHomography(ref_px, px, 0)[0]
+    assert (np.column_stack([[0, 640, 640, 0], [0, 0, 480, 480], np.ones(4)]) @ H.T)[:, 2].min() < 0
+    assert correlation(cv2, ref, ref_px, H, img) > 0.95
 
 
 def test_keypoints_on_a_plate_far_smaller_than_taught_are_right_or_not_found():
     """The goal image's plate ~160 px wide, the plate now 55-70 px: few keypoints match at that scale and a
     homography fitted to a few wrong ones was reported as detected (corners 20-500 px off) before the
-    correlation check."""
+    correlation check; with it, at most 7 px in 8 x 60 such views (the bound here leaves room for RANSAC's
+    and ORB's variations between OpenCV builds)."""
+    cv2.setRNGSeed(0)  # RANSAC's samples
     cam = ibvs.CameraModel(400.0, 400.0, 159.5, 119.5, 0.0, 0.0, 320.0, 240.0)
     target = sim.Target.square(0.2, np.eye(4))
     lit = vision.Renderer(cam, target, "texture", noise=2.0, seed=1)
@@ -220,7 +232,7 @@ def test_keypoints_on_a_plate_far_smaller_than_taught_are_right_or_not_found():
         found += 1
         assert kp.correlation >= kp.min_correlation
         errors.append(np.abs(t.pixels - projected(pose, target, cam)).max())
-    assert found >= 20 and max(errors) < 10.0, (found, max(errors))
+    assert found >= 20 and max(errors) < 15.0, (found, max(errors))
 
 
 @settings(max_examples=25, deadline=None)

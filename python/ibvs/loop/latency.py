@@ -31,7 +31,8 @@ measured (the joint states the loop reads, interpolated at t_c) up to the last s
 through the commanded joint velocities (with the same lag) beyond it - and the points (at their depths)
 move rigidly with it. Without kinematics, the interaction-matrix integral above.
 
-The servo then runs on the predicted points and depths. Without a predictor (delay 0, the default)
+The servo then runs on the predicted points (its depths stay its own: ibvs.ros.node, twist_of_image).
+Without a predictor (delay 0, the default)
 nothing of this runs: the servo sees the measured points, bit for bit as before.
 """
 

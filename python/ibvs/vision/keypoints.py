@@ -143,10 +143,11 @@ class KeypointTracker(PlanarTarget):
                             cv2, self._reference, self._anchors, H, image, 21, self.ransac_threshold)
                         if fine is not None and fine[2].sum() >= self.min_inliers:
                             H = fine[0]
-        if H is not None and self.inliers >= self.min_inliers and plausible(H, self._points, self.size):
+        check = self.min_correlation > -1.0
+        if check and H is not None and self.inliers >= self.min_inliers and plausible(H, self._points, self.size):
             self.correlation = correlation(cv2, self._reference, self._region, H, image)
         if (H is None or self.inliers < self.min_inliers or not plausible(H, self._points, self.size)
-                or not self.correlation >= self.min_correlation):
+                or (check and not self.correlation >= self.min_correlation)):
             self.pixels = np.full((n, 2), np.nan)
             self.inliers = 0 if H is None else self.inliers
             return Track(self.pixels.copy(), ("not_found",) * n, time.perf_counter() - t0)

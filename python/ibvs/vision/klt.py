@@ -102,6 +102,7 @@ class KltTracker(PlanarTarget):
         self._features, self._anchors = feats, feats.copy()  # positions now; in the first image
         self._first_count = len(feats)
         self._prev, self.homography, self.pixels, self._lost = image, np.eye(3), p.copy(), False
+        self.correlation = math.nan
         self._first = image.copy()
 
     @property
@@ -126,6 +127,7 @@ class KltTracker(PlanarTarget):
         return Track(self.pixels.copy(), ("tracked",) * n, time.perf_counter() - t0)
 
     def _step(self, cv2, image: np.ndarray) -> None:
+        self.correlation = math.nan
         lk = dict(winSize=(self.window, self.window), maxLevel=self.levels,
                   criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
         p0 = self._features.astype(np.float32).reshape(-1, 1, 2)
@@ -154,8 +156,9 @@ class KltTracker(PlanarTarget):
                 or not plausible(Hm, self._reference, self.size)):
             self._lost = True
             return
-        self.correlation = correlation(cv2, self._first, self._reference, Hm, image)
-        if not self.correlation >= self.min_correlation:
+        if self.min_correlation > -1.0:
+            self.correlation = correlation(cv2, self._first, self._reference, Hm, image)
+        if self.min_correlation > -1.0 and not self.correlation >= self.min_correlation:
             self._lost = True
             return
         self.homography = Hm / Hm[2, 2]

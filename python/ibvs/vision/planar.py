@@ -109,16 +109,25 @@ class PlanarTarget:
         return None if degenerate or not np.isfinite(pose).all() else np.asarray(pose)
 
 
+def _area(p: np.ndarray) -> float:
+    """The area of the polygon p (K, 2) (shoelace formula)."""
+    return 0.5 * abs(float(p[:, 0] @ np.roll(p[:, 1], -1) - p[:, 1] @ np.roll(p[:, 0], -1)))
+
+
 def correlation(cv2, reference: np.ndarray, polygon: np.ndarray, H: np.ndarray, image: np.ndarray) -> float:
     """How well H explains the image: the median over square tiles of the target of the normalised
     cross-correlation (in [-1, 1]) of the reference's polygon (K, 2) warped by H with the image where it
-    lands. Both sides are smoothed by a Gaussian whose width follows the warp's magnification (sensor noise,
-    and the detail an enlarged reference lacks); a tile counts when the polygon covers 3/4 of it and the
-    warped reference varies in it (std >= 2 gray levels). Invariant to an affine change of the lighting; the
-    median keeps it for a target up to half occluded, while a wrong H leaves most tiles uncorrelated (near 0).
-    0 when fewer than 4 tiles count."""
+    lands. Both sides are smoothed by a Gaussian whose width follows the magnification of the polygon by H
+    (sensor noise, and the detail an enlarged reference lacks); a tile counts when the polygon covers 3/4
+    of it and the warped reference varies in it (std >= 2 gray levels). Invariant to an affine change of the
+    lighting; the median keeps it for a target up to half occluded, while a wrong H leaves most tiles
+    uncorrelated (near 0), and a tile where the image is flat (std < 1 gray level) scores 0. 0 when H takes part of the polygon through infinity, or fewer than 4 tiles of
+    8 px or more count (a target under about 22 px across)."""
     h, w = image.shape
     rh, rw = reference.shape
+    ph = np.column_stack([polygon, np.ones(len(polygon))]) @ H.T
+    if not (np.isfinite(ph).all() and ((ph[:, 2] > 0).all() or (ph[:, 2] < 0).all())):
+        return 0.0
     seen = cv2.warpPerspective(polygon_mask(polygon, (rw, rh)), H, (w, h), flags=cv2.INTER_NEAREST)
     seen = cv2.erode(seen, np.ones((3, 3), np.uint8))
     x, y, bw, bh = cv2.boundingRect(seen)
@@ -131,26 +140,26 @@ def correlation(cv2, reference: np.ndarray, polygon: np.ndarray, H: np.ndarray, 
     cx0, cy0, cx1, cy1 = max(0, x0 - m), max(0, y0 - m), min(w, x0 + nx * t + m), min(h, y0 + ny * t + m)
     T = np.array([[1.0, 0.0, -cx0], [0.0, 1.0, -cy0], [0.0, 0.0, 1.0]])
     warped = cv2.warpPerspective(reference, T @ H, (cx1 - cx0, cy1 - cy0), flags=cv2.INTER_LINEAR)
-    p = map_points(H, np.array([[0.0, 0.0], [rw, 0.0], [rw, rh], [0.0, rh]]))
-    area = 0.5 * abs(float(p[:, 0] @ np.roll(p[:, 1], -1) - p[:, 1] @ np.roll(p[:, 0], -1)))
-    sigma = max(1.0, float(np.sqrt(area / (rw * rh)))) if np.isfinite(area) else 1.0
+    zoom = np.sqrt(_area(ph[:, :2] / ph[:, 2:]) / max(_area(polygon), 1e-9))
+    sigma = float(min(max(1.0, zoom), t / 3.0))
     a = cv2.GaussianBlur(warped.astype(np.float32), (0, 0), sigma)
     b = cv2.GaussianBlur(image[cy0:cy1, cx0:cx1].astype(np.float32), (0, 0), sigma)
     sl = (slice(y0 - cy0, y0 - cy0 + ny * t), slice(x0 - cx0, x0 - cx0 + nx * t))
+    k = (seen[cy0:cy1, cx0:cx1][sl] > 0).astype(np.float64)
+    a, b = a[sl].astype(np.float64) * k, b[sl].astype(np.float64) * k
 
-    def tiles(z):  # (ny, nx, t * t)
-        return z[sl].reshape(ny, t, nx, t).transpose(0, 2, 1, 3).reshape(ny, nx, t * t).astype(np.float64)
+    def means(z):  # (ny, nx): the mean of z over each tile (area interpolation of whole tiles is exact)
+        return cv2.resize(z, (nx, ny), interpolation=cv2.INTER_AREA).astype(np.float64)
 
-    k = tiles((seen[cy0:cy1, cx0:cx1] > 0).astype(np.float64))
-    a, b = tiles(a) * k, tiles(b) * k
-    n = k.sum(-1)
+    n = means(k)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ma, mb = a.sum(-1) / n, b.sum(-1) / n
-        va = (a * a).sum(-1) / n - ma * ma
-        vb = (b * b).sum(-1) / n - mb * mb
-        cov = (a * b).sum(-1) / n - ma * mb
-        ok = (n >= 0.75 * t * t) & (va >= 4.0)
-        r = cov[ok] / np.sqrt(va[ok] * np.maximum(vb[ok], 1e-12))
+        ma, mb = means(a) / n, means(b) / n
+        va = means(a * a) / n - ma * ma
+        vb = means(b * b) / n - mb * mb
+        cov = means(a * b) / n - ma * mb
+        ok = (n >= 0.75) & (va >= 4.0)
+        # a tile of the image flat to a gray level: no evidence for H (0), not a ratio of rounding errors
+        r = np.where(vb[ok] >= 1.0, cov[ok] / np.sqrt(va[ok] * np.maximum(vb[ok], 1.0)), 0.0)
     r = r[np.isfinite(r)]
     return float(np.clip(np.median(r), -1.0, 1.0)) if len(r) >= 4 else 0.0
 
