@@ -170,8 +170,8 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
     MujocoRobot, on the PhysicsClock, ended when every dot is within tolerance_px of its goal.
 
     compensate: predict the features over `latency` (+ the robot's velocity lag `lag`, s) with
-    ibvs.loop.latency.FeaturePredictor (the loop's latency compensation); False: the servo sees the delayed
-    features. max_linear_speed, max_angular_speed: the servo's twist caps (m/s, rad/s). The result's
+    ibvs.loop.latency.FeaturePredictor on the arm's kinematics (the loop's latency compensation, as `ibvs servo`
+    sets it up); False: the servo sees the delayed features. max_linear_speed, max_angular_speed: the servo's twist caps (m/s, rad/s). The result's
     arrays come from the loop's JSON-lines log (time: frame stamps; error: tracked - desired pixels).
     tolerance_px None: run for `duration` (the outcome is then "timeout" unless something else ended it).
     """
@@ -213,7 +213,8 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
         clock = PhysicsClock(world)
         robot = MujocoRobot(world)
         source = MujocoCamera(world, rate=camera.fps, latency=latency)
-        predictor = FeaturePredictor(latency, lag) if compensate and latency > 0 else None
+        # the arm's kinematics as the predictor's model, as `ibvs servo` builds it (ibvs.loop.setup)
+        predictor = FeaturePredictor(latency, lag, kinematics=arm) if compensate and latency > 0 else None
         params = NodeParams(desired_pixels=desired, depth=pixels_at(case.goal)[1], scheme=scheme, gain=gain,
                             max_linear_speed=max_linear_speed, max_angular_speed=max_angular_speed,
                             initial_pixels=pixels_at(case.start)[0], output="joint_velocities", eMc=arm.mount,
