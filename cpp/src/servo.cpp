@@ -13,6 +13,8 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <stdexcept>
+#include <string>
 #include <type_traits>
 #include <algorithm>
 #include <array>
@@ -591,6 +593,13 @@ void Servo::set_options(const ServoOptions& options) {
   extras_ = options.smoothing.enabled() || options.cartesian_near_goal > 0.0 || options.stop_time > 0.0;
   near_options_ = options;
   near_options_.polar_min_radius = std::numeric_limits<double>::infinity();
+}
+
+void Servo::continue_turn(double centre) {
+  if (!std::isnan(centre) && !(std::abs(centre) <= pi + wrap_hysteresis))
+    throw std::invalid_argument("ibvs: continue_turn: centre must be NaN or within pi + pi/4 of 0 (radians), got " +
+                                std::to_string(centre));
+  wrap_centre_.set(centre);
 }
 
 void Servo::reset(const Twist& current) noexcept {

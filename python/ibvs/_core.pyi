@@ -673,6 +673,10 @@ class Servo:
         """pixels, pixels_desired (N, 2) or (N, 1, 2) as measured; normalised with the servo's camera."""
     def reset(self, twist: _ArrayLike | None = None) -> None:
         """Forget the previous frame's angle-wrap branch; with decay_rate > 0 start from twist (None: rest)."""
+    def continue_turn(self, centre: float) -> None:
+        """Choose the angle wrap's branch for the next frame as if the previous mean polar angle error had been
+        centre (radians): +pi or -pi picks a half-turn's direction. NaN forgets it; ValueError unless NaN or
+        |centre| <= pi + pi/4."""
     @property
     def decay_rate(self) -> float:
         """mu >= 0 (1/s) of the continuous law (Mansard & Chaumette 2007, eq. 17); 0: off."""

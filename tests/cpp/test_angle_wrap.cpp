@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -258,6 +260,53 @@ void continuity() {
   for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), pi + 0.01, 1e-9);
 }
 
+// continue_turn: an exact half-turn whose direction the image noise decides (the points nudged
+// one way or the other) goes the way continue_turn(+pi / -pi) chooses, whatever the noise; NaN and
+// reset() leave it to the noise again; values beyond pi + wrap_hysteresis are refused.
+void chosen_turn() {
+  Points uv, uvd;
+  Eigen::VectorXd z;
+  paper_points(rotz(pi), uv, uvd, z);
+  const Layout L = Layout::polar(4);
+  Servo servo(L, ServoOptions{});
+  ServoOutput out(L);
+  for (double nudge : {1e-4, -1e-4}) {  // every point turned a little more, or less, than pi
+    Points seen = uv;
+    for (int i = 0; i < 4; ++i) {
+      const double c = std::cos(nudge), s = std::sin(nudge);
+      seen.col(i) = Eigen::Vector2d(c * uv(0, i) - s * uv(1, i), s * uv(0, i) + c * uv(1, i));
+    }
+    servo.reset();
+    servo.update(seen, z, uvd, z, out);
+    const double by_noise = out.error(1);
+    for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), by_noise, 1e-6);
+    CHECK(std::abs(std::abs(by_noise) - pi) < 1e-3);
+    for (double centre : {pi, -pi}) {
+      servo.continue_turn(centre);
+      servo.update(seen, z, uvd, z, out);
+      for (int i = 0; i < 4; ++i) CHECK_NEAR(out.error(2 * i + 1), centre + nudge, 1e-6);
+      servo.update(seen, z, uvd, z, out);  // the next frame continues on the chosen branch
+      CHECK_NEAR(out.error(1), centre + nudge, 1e-6);
+    }
+    servo.continue_turn(std::numeric_limits<double>::quiet_NaN());
+    servo.update(seen, z, uvd, z, out);
+    CHECK_NEAR(out.error(1), by_noise, 1e-12);
+    servo.continue_turn(-by_noise);
+    servo.reset();
+    servo.update(seen, z, uvd, z, out);
+    CHECK_NEAR(out.error(1), by_noise, 1e-12);
+  }
+  for (double bad : {pi + wrap_hysteresis + 1e-9, -4.0, std::numeric_limits<double>::infinity(), 1e300}) {
+    bool threw = false;
+    try {
+      servo.continue_turn(bad);
+    } catch (const std::invalid_argument&) {
+      threw = true;
+    }
+    CHECK(threw);
+  }
+}
+
 // Noisy starts within 0.5 deg of the half-turn, both signs, latency 0-2: no translation
 // spike under the consistent wrap (peak |T| within 3x what the law does 10 deg away);
 // the per-point wrap, on the same runs, has one.
@@ -307,5 +356,6 @@ void run_tests() {
   servo_matches_feature_error();
   floating_point_half_turn();
   continuity();
+  chosen_turn();
   noisy_half_turn_has_no_spike();
 }

@@ -399,6 +399,17 @@ void fuzz_smooth(Bytes& b) {
                         "smooth / masked step: finite outputs", __FILE__, __LINE__, layout.describe());
     }
     if (b.byte() > 240) servo->reset();
+    if (b.byte() > 240) {  // a hand-chosen wrap branch: refused beyond pi + pi/4 (NaN included: accepted)
+      const double centre = b.real();
+      bool threw = false;
+      try {
+        servo->continue_turn(centre);
+      } catch (const std::invalid_argument&) {
+        threw = true;
+      }
+      ibvs_test::report(threw == !(std::isnan(centre) || std::abs(centre) <= pi + wrap_hysteresis),
+                        "continue_turn refuses exactly what is out of range", __FILE__, __LINE__, layout.describe());
+    }
   }
 }
 

@@ -4,6 +4,8 @@ frame-to-frame continuity with reset(), and the option everywhere it is taken.""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from conftest import look
@@ -117,6 +119,34 @@ def test_continuity_and_reset():
     assert servo.angle_wrap == "per_point"
     signs = [np.sign(servo.update(x, z, uv_d).error[1]) for x in (a, b, a, b)]
     assert signs == [-1, 1, -1, 1]  # eq. (13) point by point follows the noise of the half-turn
+
+
+@pytest.mark.parametrize("nudge", [1e-4, -1e-4])
+def test_continue_turn_chooses_the_half_turns_way(nudge):
+    """At a half-turn the image noise (here every point turned 1e-4 more or less than pi) picks +pi or -pi;
+    continue_turn(+-pi) picks it instead, and the next frames continue on that branch; NaN and reset() leave
+    it to the noise; out-of-range values are refused naming the argument."""
+    uv_d, z = look(np.eye(4))
+    uv, _ = look(rotz(PI + nudge))
+    servo = ibvs.Servo(ibvs.Layout.polar(4), gain=1.0)
+    by_noise = servo.update(uv, z, uv_d).error[1]
+    assert abs(abs(by_noise) - PI) < 1e-3
+    for centre in (PI, -PI):
+        servo.continue_turn(centre)
+        for _ in range(2):
+            r = servo.update(uv, z, uv_d)
+            np.testing.assert_allclose(r.error[1::2], centre - nudge, atol=1e-6)
+            assert np.sign(r.velocity[5]) == np.sign(centre)  # wz = -gain * (-centre): the camera turns that way
+    servo.continue_turn(math.nan)
+    assert servo.update(uv, z, uv_d).error[1] == by_noise
+    servo.continue_turn(-by_noise)
+    servo.reset()
+    assert servo.update(uv, z, uv_d).error[1] == by_noise
+    for bad in (PI * 1.25 + 1e-9, -4.0, math.inf, 1e300):
+        with pytest.raises(ValueError, match="centre"):
+            servo.continue_turn(bad)
+    with pytest.raises(TypeError):
+        servo.continue_turn("pi")
 
 
 def test_option_everywhere_and_bad_values():

@@ -66,7 +66,7 @@ duration = 1.0
 
 SLOTS = [("source", "latency"), ("source", "drop"), ("servo", "gain"), ("servo", "depth"), ("servo", "scheme"),
          ("tracker", "desired_pixels"), ("tracker", "kind"), ("loop", "duration"), ("loop", "watchdog"),
-         ("loop", "dry_run"), ("source", "kind"), ("robot", "kind")]
+         ("loop", "dry_run"), ("source", "kind"), ("robot", "kind"), ("servo", "turn")]
 TOML_VALUES = st.one_of(st.booleans(), st.integers(-10**4, 10**4), st.floats(-1e3, 1e3), st.sampled_from(
     ["'polar'", "'x'", "'dots'", "'render'", "[1.0, 2.0]", "[[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]", "nan", "inf",
      "-inf", "'sim'"]))
@@ -120,6 +120,9 @@ def test_the_good_config_loads(tmp_path):
     (("duration = 1.0", "duration = 1.0\nrecord = \"x.bag\""), "record: must end in .mcap"),
     (("depth = 0.5", "depth = [0.5, 0.5]"), "\\[servo\\] depth"),
     (("[loop]", "[loops]"), "unknown key 'loops'"),
+    (("depth = 0.5", "depth = 0.5\nturn = 4.0"), "\\[servo\\] turn"),
+    (("depth = 0.5", "depth = 0.5\nturn = nan"), "\\[servo\\] turn"),
+    (("scheme = \"polar\"", "scheme = \"partitioned\"\nturn = 3.0"), "partitioned scheme has no polar angles"),
 ])
 def test_bad_configs_name_what_is_wrong(tmp_path, edit, match):
     path = tmp_path / "servo.toml"

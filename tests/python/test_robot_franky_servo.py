@@ -2,10 +2,11 @@
 franky-sim's FR3 through franky-control over a loopback address, the camera rendered by MuJoCo on the FR3's
 hand in franky-sim's own scene (ibvs.robot.franky_scene), the dots tracked on the images; it converges.
 
-The turn: pi - 0.05 rad about the optical axis. At exactly pi every dot's polar angle error is a tie (+-pi)
-that the rendered images' sub-pixel errors break either way, while the FR3's seventh joint (+-3.02 rad, the
-camera on its axis) can turn pi one way only from any start: the 0.05 rad decide the way (the camera turns
-negatively, joint 7 from +0.5 to -2.59). franky-sim starts at its home joints; the arm is first moved to the
+The turn: exactly pi about the optical axis. Every dot's polar angle error is then a tie (+-pi) that the
+rendered images' sub-pixel errors would break either way, while the FR3's seventh joint (+-3.02 rad, the camera
+on its axis) can turn pi one way only from any start: `[servo] turn = -pi` (Servo.continue_turn) chooses the
+way the joint allows (the camera turns negatively, joint 7 from +0.5 to -2.64). franky-sim starts at its home
+joints; the arm is first moved to the
 start with franky's own JointMotion."""
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from ibvs.sim import physics  # noqa: E402
 
 HOME = np.array([0.0, 0.0, 0.0, -1.57, 0.0, 1.57, 0.785])
 START = np.r_[HOME[:6], 0.5]  # asked for; the test servos from where franky-sim's arm then stands
-TURN = -(np.pi - 0.05)  # about the optical axis (the module docstring)
+TURN = -np.pi  # about the optical axis, the way [servo] turn chooses (the module docstring)
 MOUNT_T = (0.0, 0.0, 0.13)  # the camera 13 cm along the flange's z: on joint 7's axis, past the fingers
 SQUARE = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0.0]])
 DEPTH = 0.35
@@ -115,6 +116,7 @@ gain = 1.5
 depth = {DEPTH}
 max_linear_speed = 0.1
 max_angular_speed = 1.2
+turn = {TURN!r}  # the half-turn's way: joint 7 can turn -pi from +0.5, not +pi
 
 [robot]
 kind = "franky"

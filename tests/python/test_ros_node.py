@@ -227,3 +227,37 @@ def test_launch_file_compiles_and_names_the_console_script(tmp_path):
     declared = {f.name for f in dataclasses.fields(NodeParams)}
     for name in ("desired_pixels", "depth", "scheme", "gain", "tracker", "output", "twist_frame", "lost_timeout"):
         assert f'"{name}":' in text and name in declared
+
+
+def test_turn_chooses_the_half_turns_way_and_is_checked():
+    """NodeParams.turn: Servo.continue_turn at the start and at every reset (the half-turn's way, not the noise's);
+    NaN by default (nothing chosen); refused out of range, or with the partitioned scheme (no polar angles)."""
+    import math
+
+    desired = [[300.0, 200.0], [340.0, 200.0], [340.0, 240.0], [300.0, 240.0]]
+    calls = []
+
+    class Watched:  # the servo, noting continue_turn
+        def __init__(self, servo):
+            self.servo = servo
+
+        def continue_turn(self, centre):
+            calls.append(centre)
+            self.servo.continue_turn(centre)
+
+        def reset(self):
+            self.servo.reset()
+
+    core = ServoNodeCore(NodeParams(desired_pixels=desired, turn=-math.pi), clock=lambda: 0)
+    core.servo = Watched(core.servo)
+    core.reset()
+    assert calls == [-math.pi]
+    core = ServoNodeCore(NodeParams(desired_pixels=desired), clock=lambda: 0)
+    core.servo = Watched(core.servo)
+    core.reset()
+    assert calls == [-math.pi]  # NaN: nothing chosen
+    for bad in (4.0, math.inf, -1e300, "pi", True):
+        with pytest.raises(ValueError, match="turn"):
+            ServoNodeCore(NodeParams(desired_pixels=desired, turn=bad), clock=lambda: 0)
+    with pytest.raises(ValueError, match="turn: the 'partitioned' scheme"):
+        ServoNodeCore(NodeParams(desired_pixels=desired, scheme="partitioned", turn=math.pi), clock=lambda: 0)

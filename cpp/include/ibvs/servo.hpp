@@ -231,6 +231,14 @@ class Servo {
   /// Forget the previous frame's angle-wrap branch (see angle_wrap.hpp) and, with smoothing,
   /// start the next update from `current`, the twist the camera has (rest by default). noexcept.
   void reset(const Twist& current = Twist::Zero()) noexcept;
+  /// The consistent angle wrap's branch for the next frame (angle_wrap.hpp), chosen by hand: as if the
+  /// previous frame's circular mean of the polar angle errors (theta - theta*, radians) had been `centre`.
+  /// At a half-turn about the optical axis, whose direction the image noise would otherwise decide,
+  /// centre = +pi or -pi chooses which way the camera turns (e.g. the way a wrist joint's limits allow);
+  /// the frames after it continue from there as usual. NaN forgets the branch (as reset() does); the
+  /// per-point wrap ignores it. Throws std::invalid_argument unless centre is NaN or |centre| <= pi +
+  /// wrap_hysteresis. Never allocates.
+  void continue_turn(double centre);
   /// Smoothing: the law changes now (e.g. a gain switched by hand, or another servo handing
   /// over): the next update blends from `from`, the twist last commanded. noexcept.
   void switch_law(const Twist& from) noexcept;

@@ -12,7 +12,7 @@ Sections (docs/servo-loop.md has every key; docs/servo.toml is a complete exampl
   [target]   the rendered target (render): points, pose = { t = [...], r_deg = [...] }, as scenario files
   [tracker]  kind = "dots" or "tag", desired_pixels, initial_pixels, tag_ids
   [servo]    scheme, gain, depth, damping, max_linear_speed, max_angular_speed, max_joint_speed,
-             lost_timeout
+             lost_timeout, turn
   [robot]    kind = one of ibvs.robot.ROBOTS ("sim", "mujoco", "franky", "ur", "ros2_control") and its
              driver's options (ibvs.robot.open_robot(kind, **options))
   [loop]     rate, duration, watchdog, state_watchdog, late, latency, lag, converge_px, dry_run,
@@ -54,7 +54,7 @@ _SOURCE_KEYS = {"render": ("kind", "render", "latency", "drop", "seed", "dot_rad
                 "franky_scene": ("kind", "rate", "dot_radius")}
 _TRACKER_KEYS = ("kind", "desired_pixels", "initial_pixels", "tag_ids")
 _SERVO_KEYS = ("scheme", "gain", "depth", "damping", "max_linear_speed", "max_angular_speed", "max_joint_speed",
-               "lost_timeout")
+               "lost_timeout", "turn")
 
 
 def read(path) -> Dict[str, Any]:
@@ -231,6 +231,9 @@ def load(path) -> LoopConfig:
     for key, lo, hi in (("gain", 0, 1e4), ("damping", 0, 1e4), ("max_linear_speed", 0, 100),
                         ("max_angular_speed", 0, 100), ("max_joint_speed", 0, 100), ("lost_timeout", 0, 100)):
         _number(sv, key, f"{where} [servo]", lo, hi, open_lo=key != "damping")
+    _number(sv, "turn", f"{where} [servo]", -1.25 * math.pi, 1.25 * math.pi)
+    if "turn" in sv and scheme == "partitioned":
+        raise ValueError(f"{where} [servo] turn: the partitioned scheme has no polar angles to turn")
     depth = sv.get("depth", 0.5)
     try:
         z = np.array(depth, dtype=np.float64).reshape(-1)

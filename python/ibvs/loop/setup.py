@@ -14,6 +14,7 @@ Jacobian, jacobian(q) (camera twist = J(q) qdot).
 from __future__ import annotations
 
 import inspect
+import math
 from typing import Any, Dict, Optional
 
 import numpy as np
@@ -231,7 +232,8 @@ class Setup:
             max_angular_speed=float(sv.get("max_angular_speed", 0.5)), tracker=tr.get("kind", "dots"),
             initial_pixels=initial, tag_ids=tuple(tr.get("tag_ids", (0,))), output="joint_velocities",
             eMc=np.eye(4), joint_names=names, max_joint_speed=sv.get("max_joint_speed"),
-            lost_timeout=float(sv.get("lost_timeout", 0.2)), fps=float(camera.fps))
+            lost_timeout=float(sv.get("lost_timeout", 0.2)), fps=float(camera.fps),
+            turn=float(sv.get("turn", math.nan)))
         self.predictor = FeaturePredictor(o.latency, o.lag, kinematics=self.kinematics) if o.latency > 0 else None
         clock = self.clock
         core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),

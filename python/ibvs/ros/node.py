@@ -69,6 +69,9 @@ class NodeParams:
     joint_names     the arm's joints, in the order of the Jacobian (joint velocity outputs)
     max_joint_speed rad/s (or m/s) per joint, or one for all; None: no limit
     lost_timeout    seconds over which the last twist ramps down to zero once the features are lost
+    turn            radians: which way a half-turn about the optical axis goes (Servo.continue_turn: the polar
+                    angle errors taken near +pi or -pi at the first frame, instead of as the image noise has
+                    them), applied at the start and at every reset; NaN (default): the noise decides
     """
 
     desired_pixels: Sequence = ()
@@ -90,6 +93,7 @@ class NodeParams:
     max_joint_speed: Optional[object] = None
     lost_timeout: float = 0.2
     fps: float = 30.0
+    turn: float = math.nan
 
 
 def _check(p: NodeParams):
@@ -113,6 +117,10 @@ def _check(p: NodeParams):
         x = getattr(p, name)
         if not (isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0):
             raise ValueError(f"{name} must be a number > 0, got {x!r}")
+    if isinstance(p.turn, bool) or not isinstance(p.turn, (int, float)) or not (
+            math.isnan(p.turn) or abs(p.turn) <= 1.25 * math.pi):
+        raise ValueError(f"turn must be NaN or a number of radians within 5 pi / 4 of 0 (+-pi: which way a "
+                         f"half-turn goes), got {p.turn!r}")
     eMc = None
     if p.eMc is not None:
         eMc = np.asarray(p.eMc, dtype=np.float64).reshape(4, 4) if np.size(p.eMc) == 16 else None
@@ -148,6 +156,9 @@ class ServoNodeCore:
             self.servo.damping = float(params.damping)
             self.servo.max_linear_speed = float(params.max_linear_speed)
             self.servo.max_angular_speed = float(params.max_angular_speed)
+        if not math.isnan(params.turn) and not hasattr(self.servo, "continue_turn"):
+            raise ValueError(f"turn: the {params.scheme!r} scheme has no angle to turn (no polar angle rows)")
+        self._turn()
         self.mapping = None
         if params.output != "twist":
             if jacobian is None:
@@ -288,8 +299,14 @@ class ServoNodeCore:
         self.last_twist, self.last_good_ns, self.state = np.zeros(6), None, "waiting"
         if hasattr(self.servo, "reset"):
             self.servo.reset()
+        self._turn()
 
     # ------------------------------------------------------------------ internals
+
+    def _turn(self) -> None:
+        """The half-turn's direction chosen by params.turn (none when NaN)."""
+        if not math.isnan(self.params.turn):
+            self.servo.continue_turn(float(self.params.turn))
 
     def _bad(self, message: str) -> None:
         self.last_error = message
