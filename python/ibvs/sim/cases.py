@@ -28,7 +28,7 @@ from .._core import sim as _sim
 from .ik import solve_ik, solve_joints  # noqa: F401  (solve_joints: the name scripts used before solve_ik)
 from .poses import pose
 
-__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "arm_robot", "ARMS", "eye_to_hand", "EYE_TO_HAND_MOTIONS", "solve_ik", "solve_joints", "free_cases", "all_cases", "six_point_circle"]
+__all__ = ["Case", "x_translation", "z_rotation", "general_motion", "corner_to_corner", "gantry_general_motion", "gantry_joint_limit", "arm_general_motion", "arm_motion", "arm_robot", "ARMS", "eye_to_hand", "EYE_TO_HAND_MOTIONS", "solve_ik", "solve_joints", "free_cases", "all_cases", "six_point_circle"]
 
 
 @dataclass(frozen=True)
@@ -227,8 +227,22 @@ def arm_general_motion(name: str = "panda", robot: Optional[_sim.Robot] = None, 
 
     robot: any other ibvs.sim.Robot (e.g. UrdfRobot(path, frame, eMc)), then `name` only names the case;
     goal: its goal joints (default: ARMS[name]'s for an example arm, else the middle of every joint's
-    range). ValueError when the start cannot be reached within the joint limits.
+    range). ValueError when the start cannot be reached within the joint limits. arm_motion(name,
+    "general_motion") is the same case.
     """
+    return arm_motion(name, "general_motion", robot, goal)
+
+
+def arm_motion(name: str = "panda", motion: str = "general_motion", robot: Optional[_sim.Robot] = None,
+               goal=None) -> Case:
+    """A paper case with the camera on an arm (eye-in-hand; arm_general_motion's arm, goal and target):
+    motion "x_translation", "z_rotation" or "general_motion", the start camera offset from the goal camera by
+    EYE_TO_HAND_MOTIONS[motion] in its own frame. The z-rotation's start (pi about the optical axis) is
+    searched from the goal with the last joint turned by -pi, the way its limits allow: the servo must turn
+    it back by +pi (Servo.continue_turn(+pi), NodeParams.turn; the image noise would pick either way).
+    ValueError when the start cannot be reached within the joint limits."""
+    if motion not in EYE_TO_HAND_MOTIONS:
+        raise ValueError(f"motion must be one of {sorted(EYE_TO_HAND_MOTIONS)}, got {motion!r}")
     if robot is None:
         robot = arm_robot(name)
     if goal is None:
@@ -241,8 +255,13 @@ def arm_general_motion(name: str = "panda", robot: Optional[_sim.Robot] = None, 
         raise ValueError(f"goal: joint {robot.outside_limits(goal) + 1} is outside its limits")
     goal_pose = robot.camera(goal)
     target = _sim.Target.square(0.1, goal_pose @ pose(t=(0.0, 0.0, ARM_DESIRED_DEPTH)))
-    start = _start_joints(robot, goal_pose @ pose(t=GANTRY_GENERAL_MOTION_T, r=GANTRY_GENERAL_MOTION_R), goal)
-    return Case(f"{name}_general_motion", f"general motion with a camera on the {name} arm (URDF, Pinocchio)",
+    t, r = EYE_TO_HAND_MOTIONS[motion]
+    seed = goal.copy()
+    if motion == "z_rotation":
+        seed[-1] -= np.pi
+    start = _start_joints(robot, goal_pose @ pose(t=t, r=r), seed)
+    what = "general motion" if motion == "general_motion" else motion.replace("_", "-")
+    return Case(f"{name}_{motion}", f"{what} with a camera on the {name} arm (URDF, Pinocchio)",
                 CameraModel.afma6(), target, start, goal, robot, 15.0)
 
 
@@ -250,7 +269,7 @@ def arm_general_motion(name: str = "panda", robot: Optional[_sim.Robot] = None, 
 # (end effector <- target, (t, r) of pose()); the camera is fixed in the world, ARM_DESIRED_DEPTH in
 # front of it at the goal joints, looking back at the tool.
 EYE_TO_HAND_TARGET = ((0.0, 0.0, 0.1), (np.pi, 0.0, 0.0))
-#: The starts of eye_to_hand(): motion name -> (t, r) of pose(), the start camera in the goal camera's frame
+#: The starts of eye_to_hand() and arm_motion(): motion name -> (t, r) of pose(), the start camera in the goal camera's frame
 #: relative to the target (the paper's offsets; the target moves the opposite way): its x-translation (0.2 at
 #: 3 m depth, scaled to 0.5 m), its z-rotation of pi and the general motion of arm_general_motion.
 EYE_TO_HAND_MOTIONS = {

@@ -17,6 +17,7 @@ decays without crossing zero, 0.05 = it went 5 % of the initial error beyond the
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional
 
@@ -163,7 +164,8 @@ def run(case, servo, camera=None, duration: Optional[float] = None, latency: flo
 
 def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, duration: Optional[float] = None,
              latency: float = 0.0, compensate: bool = False, lag: float = 0.0, tolerance_px: Optional[float] = 0.5,
-             max_linear_speed: float = 1.0, max_angular_speed: float = 3.0, world=None) -> PhysicsResult:
+             max_linear_speed: float = 1.0, max_angular_speed: float = 3.0, world=None,
+             turn: float = math.nan) -> PhysicsResult:
     """`case` on the testbed through ibvs.loop's ServoLoop, the loop that drives real robots: MujocoCamera
     (frames delivered `latency` s after exposure) -> ibvs.ros.ServoNodeCore (the tracker, the servo of
     `scheme` at `gain` on the constant desired depths, the lost-feature ramp, ibvs.JointMapping) ->
@@ -174,6 +176,7 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
     sets it up); False: the servo sees the delayed features. max_linear_speed, max_angular_speed: the servo's twist caps (m/s, rad/s). The result's
     arrays come from the loop's JSON-lines log (time: frame stamps; error: tracked - desired pixels).
     tolerance_px None: run for `duration` (the outcome is then "timeout" unless something else ended it).
+    turn: radians, which way a half-turn about the optical axis goes (NodeParams.turn; NaN: the image noise's).
     """
     import json
     import os
@@ -218,7 +221,8 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
         params = NodeParams(desired_pixels=desired, depth=pixels_at(case.goal)[1], scheme=scheme, gain=gain,
                             max_linear_speed=max_linear_speed, max_angular_speed=max_angular_speed,
                             initial_pixels=pixels_at(case.start)[0], output="joint_velocities", eMc=arm.mount,
-                            joint_names=list(arm.joint_names), max_joint_speed=arm.qdot_max, fps=camera.fps)
+                            joint_names=list(arm.joint_names), max_joint_speed=arm.qdot_max, fps=camera.fps,
+                            turn=turn)
         core = ServoNodeCore(params, clock=lambda: int(round(clock.now() * 1e9)),
                              jacobian=lambda q: arm.kinematics(q)[1], predictor=predictor)
         core.set_camera(camera)
