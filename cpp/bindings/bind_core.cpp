@@ -602,8 +602,9 @@ normalised by camera.normalize, then as update(). The result's pixel_error is th
           "continue_turn", [](PyServo& s, double centre) { s.servo.continue_turn(centre); }, py::arg("centre"),
           "Choose the consistent angle wrap's branch for the next frame, as if the previous frame's mean polar\n"
           "angle error (theta - theta*, radians) had been `centre`: at a half-turn about the optical axis,\n"
-          "+pi or -pi chooses the way the camera turns instead of the image noise. NaN forgets it (as reset());\n"
-          "ValueError unless NaN or |centre| <= pi + pi/4.")
+          "+pi or -pi chooses the way the camera turns instead of the image noise. NaN forgets it (as reset()\n"
+          "and a change of angle_wrap do; ibvs.sim.run resets the servo: use its turn). ValueError unless NaN or\n"
+          "|centre| <= pi + pi/4.")
       .def_property_readonly("decay_rate", [](const PyServo& s) { return s.servo.options().smoothing.decay_rate; })
       .def_property_readonly("max_linear_acceleration",
                              [](const PyServo& s) { return s.servo.options().smoothing.max_linear_acceleration; })

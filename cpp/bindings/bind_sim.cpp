@@ -9,6 +9,7 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
+#include <limits>
 #include <string>
 
 namespace py = pybind11;
@@ -639,7 +640,7 @@ it stops the episode and is raised by run().)")
           py::handle robot, double duration, double noise, int latency, py::handle depth,
           std::uint64_t seed, double tolerance, double tolerance_px, double max_depth_ratio, double max_error_ratio,
           bool stop_on_singular, double depth_scale, double boundary_margin, double boundary_gain,
-          double standoff_ratio, py::handle sensor, bool keep_lost, py::handle goal_pose) {
+          double standoff_ratio, py::handle sensor, bool keep_lost, py::handle goal_pose, double turn) {
         EpisodeOptions o;
         o.duration = duration;
         o.noise = noise;
@@ -657,6 +658,7 @@ it stops the episode and is raised by run().)")
         o.standoff_ratio = standoff_ratio;
         o.keep_lost = keep_lost;
         o.goal_pose = goal_pose_of(goal_pose);
+        o.turn = turn;
         std::shared_ptr<Sensor> py_sensor_held;
         PySensor* py_sensor = nullptr;
         if (!sensor.is_none()) {
@@ -727,5 +729,6 @@ it stops the episode and is raised by run().)")
       py::arg("max_error_ratio") = 100.0, py::arg("stop_on_singular") = true, py::arg("depth_scale") = 1.0,
       py::arg("boundary_margin") = 0.0, py::arg("boundary_gain") = 0.1, py::arg("standoff_ratio") = 0.05,
       py::arg("sensor") = py::none(), py::arg("keep_lost") = false, py::arg("goal_pose") = "taught",
+      py::arg("turn") = std::numeric_limits<double>::quiet_NaN(),
       "Runs one episode; returns a dict of arrays and scalars (see ibvs.sim.run).");
 }

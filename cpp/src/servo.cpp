@@ -13,8 +13,6 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <stdexcept>
-#include <string>
 #include <type_traits>
 #include <algorithm>
 #include <array>
@@ -598,7 +596,7 @@ void Servo::set_options(const ServoOptions& options) {
 void Servo::continue_turn(double centre) {
   if (!std::isnan(centre) && !(std::abs(centre) <= pi + wrap_hysteresis))
     throw std::invalid_argument("ibvs: continue_turn: centre must be NaN or within pi + pi/4 of 0 (radians), got " +
-                                std::to_string(centre));
+                                detail::number(centre));
   wrap_centre_.set(centre);
 }
 

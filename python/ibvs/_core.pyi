@@ -675,8 +675,8 @@ class Servo:
         """Forget the previous frame's angle-wrap branch; with decay_rate > 0 start from twist (None: rest)."""
     def continue_turn(self, centre: float) -> None:
         """Choose the angle wrap's branch for the next frame as if the previous mean polar angle error had been
-        centre (radians): +pi or -pi picks a half-turn's direction. NaN forgets it; ValueError unless NaN or
-        |centre| <= pi + pi/4."""
+        centre (radians): +pi or -pi picks a half-turn's direction. NaN forgets it (as reset() and a change of
+        angle_wrap do; ibvs.sim.run resets the servo: use its turn); ValueError unless NaN or |centre| <= pi + pi/4."""
     @property
     def decay_rate(self) -> float:
         """mu >= 0 (1/s) of the continuous law (Mansard & Chaumette 2007, eq. 17); 0: off."""
@@ -1202,6 +1202,7 @@ class sim:
         sensor: sim.Sensor | None = None,
         keep_lost: bool = False,
         goal_pose: str = "taught",
+        turn: float = ...,
     ) -> dict[str, Any]:
         """One episode; a dict of arrays and scalars (ibvs.sim.run builds its Result from it)."""
 

@@ -677,6 +677,7 @@ void smooth_and_lost_allocate_nothing() {
     const Status lost = servo.update(in, out);
     in.valid.setConstant(true);
     in.uv.col(1) << 0.1, 0.0;
+    servo.continue_turn(-pi);  // a hand-chosen wrap branch (set up between frames): no allocation either
     st = servo.update(in, out);
     const long during = news.load() - before;
     ibvs_test::report(during == 0, "no allocation in the smooth / masked update", __FILE__, __LINE__, L.describe());

@@ -916,6 +916,7 @@ void fuzz_sources(Bytes& b) {
   o.depth = static_cast<DepthMode>(b.small(0, 3));
   o.depth_scale = b.byte() < 192 ? 1.0 : 0.5 + b.byte() / 128.0;
   o.goal_pose = static_cast<GoalPose>(b.small(0, 2));  // taught, given, or an invalid value (refused)
+  if (b.byte() > 230) o.turn = b.real();  // a half-turn's way: NaN or within pi + pi/4, else refused
   t.pose = Pose::Identity();
   t.pose(2, 3) = 1.0 + b.byte() / 64.0;
   if (b.byte() < 96) {  // PBVS and 2.5-D instead: their goal as the depth mode knows it (teach by showing)

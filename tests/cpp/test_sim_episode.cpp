@@ -53,6 +53,26 @@ void z_rotation_pi() {
   r = run_episode(servo(Layout::stacked(4)), cam, tgt, half_turn_z(), Pose::Identity(), opts(20, 1e-3));
   CHECK(r.status.outcome == Outcome::converged);
   CHECK(r.metrics.final_rotation_error < 1e-3);
+  // turn: the exact half-turn goes the way chosen (Servo::continue_turn after the run's reset), both converge;
+  // without it the exact tie keeps +pi (angle_wrap.hpp), the same way as turn = +pi.
+  double first_wz[3];
+  const double turns[3] = {pi, -pi, std::numeric_limits<double>::quiet_NaN()};
+  for (int i = 0; i < 3; ++i) {
+    EpisodeOptions o = opts(20, 1e-3);
+    o.turn = turns[i];
+    r = run_episode(servo(Layout::polar(4)), cam, tgt, half_turn_z(), Pose::Identity(), o);
+    CHECK(r.status.outcome == Outcome::converged);
+    first_wz[i] = r.history.twist(0, 5);
+  }
+  CHECK(first_wz[0] * first_wz[1] < 0.0 && std::abs(first_wz[0] + first_wz[1]) < 1e-9 * std::abs(first_wz[0]));
+  CHECK(first_wz[2] == first_wz[0]);
+  EpisodeOptions bad = opts(20, 1e-3);
+  for (double t : {pi + wrap_hysteresis + 1e-9, -4.0, std::numeric_limits<double>::infinity()}) {
+    bad.turn = t;
+    CHECK_THROWS(bad.validate());
+  }
+  bad.turn = -pi;
+  CHECK_THROWS(Episode refused(PartitionedServo(4), cam, tgt, bad));
 }
 
 void x_translation_case() {

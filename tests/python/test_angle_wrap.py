@@ -149,6 +149,29 @@ def test_continue_turn_chooses_the_half_turns_way(nudge):
         servo.continue_turn("pi")
 
 
+def test_sim_run_turn_chooses_the_half_turns_way():
+    """ibvs.sim.run resets the servo at the start of a run (a new task), then applies `turn`: the paper's exact
+    half-turn goes either way and converges; without it the exact tie keeps +pi; bad values are refused."""
+    case = sim.cases.z_rotation()
+    first = {}
+    for turn in (PI, -PI, math.nan):
+        servo = ibvs.Servo(ibvs.Layout.polar(4), gain=2.0)
+        servo.continue_turn(-PI)  # forgotten: the run resets the servo
+        r = sim.run(servo, case.camera, case.target, case.start, case.goal, duration=10.0, turn=turn)
+        assert r.status.outcome == "converged", (turn, r.status.outcome)
+        first[turn if not math.isnan(turn) else "nan"] = r.history.twist[0, 5]
+    assert first[PI] * first[-PI] < 0 and first["nan"] == first[PI]
+    for bad in (4.0, math.inf, -1e300):
+        with pytest.raises(ValueError, match="turn"):
+            sim.run(ibvs.Servo(ibvs.Layout.polar(4), gain=1.0), case.camera, case.target, case.start, case.goal,
+                    turn=bad)
+    with pytest.raises(TypeError, match="turn"):
+        sim.run(ibvs.Servo(ibvs.Layout.polar(4), gain=1.0), case.camera, case.target, case.start, case.goal,
+                turn="pi")
+    with pytest.raises(ValueError, match="turn needs a Servo"):
+        sim.run(ibvs.PartitionedServo(4, 1.0), case.camera, case.target, case.start, case.goal, turn=PI)
+
+
 def test_option_everywhere_and_bad_values():
     assert ibvs.Servo(ibvs.Layout.polar(4), gain=1.0).angle_wrap == "consistent"
     assert ibvs.Servo.automatic_hybrid(4, gain=1.0, angle_wrap="per_point").angle_wrap == "per_point"

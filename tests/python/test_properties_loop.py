@@ -122,7 +122,7 @@ def test_the_good_config_loads(tmp_path):
     (("[loop]", "[loops]"), "unknown key 'loops'"),
     (("depth = 0.5", "depth = 0.5\nturn = 4.0"), "\\[servo\\] turn"),
     (("depth = 0.5", "depth = 0.5\nturn = nan"), "\\[servo\\] turn"),
-    (("scheme = \"polar\"", "scheme = \"partitioned\"\nturn = 3.0"), "partitioned scheme has no polar angles"),
+    (("scheme = \"polar\"", "scheme = \"partitioned\"\nturn = 3.0"), "partitioned scheme has no consistent angle wrap"),
 ])
 def test_bad_configs_name_what_is_wrong(tmp_path, edit, match):
     path = tmp_path / "servo.toml"

@@ -166,12 +166,14 @@ VALID = {
     "max_error_ratio": lambda x: 1 < x,
     "latency": lambda x: isinstance(x, int) and 0 <= x <= 1000,
     "seed": lambda x: isinstance(x, int) and 0 <= x < 2**64,
+    "turn": lambda x: math.isnan(x) or abs(x) <= 1.25 * math.pi,
 }
 
 
 @settings(max_examples=60)
 @given(st.sampled_from(["duration", "noise", "tolerance", "tolerance_px", "depth_scale", "boundary_margin",
-                        "boundary_gain", "standoff_ratio", "max_depth_ratio", "max_error_ratio", "latency", "seed"]),
+                        "boundary_gain", "standoff_ratio", "max_depth_ratio", "max_error_ratio", "latency", "seed",
+                        "turn"]),
        RUN_NUMBER)
 def test_sim_run_arguments_finite_or_refused(name, value):
     """One argument of sim.run at a time, anything; a short run (at most 0.2 s simulated)."""

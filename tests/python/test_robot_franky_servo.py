@@ -3,8 +3,8 @@ franky-sim's FR3 through franky-control over a loopback address, the camera rend
 hand in franky-sim's own scene (ibvs.robot.franky_scene), the dots tracked on the images; it converges.
 
 The turn: exactly pi about the optical axis. Every dot's polar angle error is then a tie (+-pi) that the
-rendered images' sub-pixel errors would break either way, while the FR3's seventh joint (+-3.02 rad, the camera
-on its axis) can turn pi one way only from any start: `[servo] turn = -pi` (Servo.continue_turn) chooses the
+rendered images' sub-pixel errors would break either way, while the FR3's seventh joint (+-2.97 rad in
+franky-sim's model, the camera on its axis) can turn pi one way only from any start: `[servo] turn = -pi` (Servo.continue_turn) chooses the
 way the joint allows (the camera turns negatively, joint 7 from +0.5 to -2.64). franky-sim starts at its home
 joints; the arm is first moved to the
 start with franky's own JointMotion."""

@@ -229,7 +229,7 @@ def test_launch_file_compiles_and_names_the_console_script(tmp_path):
         assert f'"{name}":' in text and name in declared
 
 
-def test_turn_chooses_the_half_turns_way_and_is_checked():
+def test_turn_chooses_the_half_turns_way_and_is_checked(monkeypatch):
     """NodeParams.turn: Servo.continue_turn at the start and at every reset (the half-turn's way, not the noise's);
     NaN by default (nothing chosen); refused out of range, or with the partitioned scheme (no polar angles)."""
     import math
@@ -248,16 +248,26 @@ def test_turn_chooses_the_half_turns_way_and_is_checked():
         def reset(self):
             self.servo.reset()
 
+        def __setattr__(self, name, value):  # the node sets damping, speeds... on the servo itself
+            if name == "servo":
+                object.__setattr__(self, name, value)
+            else:
+                setattr(self.servo, name, value)
+
+    from ibvs.study import schemes
+
+    make = schemes.make
+    monkeypatch.setattr(schemes, "make", lambda *a, **k: Watched(make(*a, **k)))
     core = ServoNodeCore(NodeParams(desired_pixels=desired, turn=-math.pi), clock=lambda: 0)
-    core.servo = Watched(core.servo)
+    assert calls == [-math.pi]  # at construction
     core.reset()
-    assert calls == [-math.pi]
+    assert calls == [-math.pi, -math.pi]  # and at every reset
     core = ServoNodeCore(NodeParams(desired_pixels=desired), clock=lambda: 0)
-    core.servo = Watched(core.servo)
     core.reset()
-    assert calls == [-math.pi]  # NaN: nothing chosen
+    assert calls == [-math.pi, -math.pi]  # NaN: nothing chosen
+    monkeypatch.setattr(schemes, "make", make)
     for bad in (4.0, math.inf, -1e300, "pi", True):
         with pytest.raises(ValueError, match="turn"):
             ServoNodeCore(NodeParams(desired_pixels=desired, turn=bad), clock=lambda: 0)
-    with pytest.raises(ValueError, match="turn: the 'partitioned' scheme"):
+    with pytest.raises(ValueError, match="turn: the 'partitioned' scheme has no consistent angle wrap"):
         ServoNodeCore(NodeParams(desired_pixels=desired, scheme="partitioned", turn=math.pi), clock=lambda: 0)

@@ -235,9 +235,10 @@ class Servo {
   /// previous frame's circular mean of the polar angle errors (theta - theta*, radians) had been `centre`.
   /// At a half-turn about the optical axis, whose direction the image noise would otherwise decide,
   /// centre = +pi or -pi chooses which way the camera turns (e.g. the way a wrist joint's limits allow);
-  /// the frames after it continue from there as usual. NaN forgets the branch (as reset() does); the
-  /// per-point wrap ignores it. Throws std::invalid_argument unless centre is NaN or |centre| <= pi +
-  /// wrap_hysteresis. Never allocates.
+  /// the frames after it continue from there as usual. NaN forgets the branch, as do reset() and a change
+  /// of angle_wrap; the per-point wrap and a task without polar angles ignore it. Throws
+  /// std::invalid_argument unless centre is NaN or |centre| <= pi + wrap_hysteresis; allocates only
+  /// when it throws. (sim::EpisodeOptions::turn applies it after an episode's reset.)
   void continue_turn(double centre);
   /// Smoothing: the law changes now (e.g. a gain switched by hand, or another servo handing
   /// over): the next update blends from `from`, the twist last commanded. noexcept.

@@ -72,6 +72,8 @@ void EpisodeOptions::validate() const {
   if (goal_pose != GoalPose::taught && goal_pose != GoalPose::given) fail("goal_pose must be taught or given");
   if (keep_lost && depth != DepthMode::exact && depth != DepthMode::desired)
     fail("keep_lost needs depth exact or desired (the pose and estimated depths need every point)");
+  if (!std::isnan(turn) && !(std::abs(turn) <= pi + wrap_hysteresis))
+    fail("turn must be NaN or within pi + pi/4 of 0 (radians: which way a half-turn goes)");
 }
 
 namespace {
@@ -147,6 +149,8 @@ Episode::Episode(AnyServo servo, CameraModel camera, Target target, EpisodeOptio
     throw std::invalid_argument("ibvs: keep_lost needs a Servo (a PartitionedServo cannot leave points out)");
   if (options_.keep_lost && blocks)
     throw std::invalid_argument("ibvs: keep_lost needs a task of points only (feature blocks cannot be left out)");
+  if (!std::isnan(options_.turn) && !std::holds_alternative<Servo>(servo_))
+    throw std::invalid_argument("ibvs: turn needs a Servo (a PartitionedServo has no angle wrap)");
   // The smooth law's clock (smoothing.hpp) is the frame period.
   if (Servo* s = std::get_if<Servo>(&servo_)) {
     ServoOptions so = s->options();
@@ -254,7 +258,10 @@ void Episode::loop(Pose T_wc, const JointVector* q_start) noexcept {
   EpisodeStatus& st = result_.status;
   mt = Metrics{};
   st = EpisodeStatus{};
-  if (Servo* s = std::get_if<Servo>(&servo_)) s->reset();  // a new task: no angle-wrap branch from the last run
+  if (Servo* s = std::get_if<Servo>(&servo_)) {
+    s->reset();  // a new task: no angle-wrap branch from the last run
+    if (!std::isnan(options_.turn)) s->continue_turn(options_.turn);  // validated: cannot throw
+  }
   actuate.start(q_start);
   depths.start();
   judge.start();

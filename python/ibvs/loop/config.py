@@ -233,7 +233,8 @@ def load(path) -> LoopConfig:
         _number(sv, key, f"{where} [servo]", lo, hi, open_lo=key != "damping")
     _number(sv, "turn", f"{where} [servo]", -1.25 * math.pi, 1.25 * math.pi)
     if "turn" in sv and scheme == "partitioned":
-        raise ValueError(f"{where} [servo] turn: the partitioned scheme has no polar angles to turn")
+        raise ValueError(f"{where} [servo] turn: the partitioned scheme has no consistent angle wrap to choose a way "
+                         f"with")
     depth = sv.get("depth", 0.5)
     try:
         z = np.array(depth, dtype=np.float64).reshape(-1)

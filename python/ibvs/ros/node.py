@@ -71,7 +71,8 @@ class NodeParams:
     lost_timeout    seconds over which the last twist ramps down to zero once the features are lost
     turn            radians: which way a half-turn about the optical axis goes (Servo.continue_turn: the polar
                     angle errors taken near +pi or -pi at the first frame, instead of as the image noise has
-                    them), applied at the start and at every reset; NaN (default): the noise decides
+                    them), applied at the start and at every reset; NaN (default): the noise decides; schemes
+                    without polar angles ignore it, the partitioned one (no angle wrap) refuses it
     """
 
     desired_pixels: Sequence = ()
@@ -157,7 +158,7 @@ class ServoNodeCore:
             self.servo.max_linear_speed = float(params.max_linear_speed)
             self.servo.max_angular_speed = float(params.max_angular_speed)
         if not math.isnan(params.turn) and not hasattr(self.servo, "continue_turn"):
-            raise ValueError(f"turn: the {params.scheme!r} scheme has no angle to turn (no polar angle rows)")
+            raise ValueError(f"turn: the {params.scheme!r} scheme has no consistent angle wrap to choose a way with")
         self._turn()
         self.mapping = None
         if params.output != "twist":

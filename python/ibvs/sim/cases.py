@@ -238,8 +238,9 @@ def arm_motion(name: str = "panda", motion: str = "general_motion", robot: Optio
     """A paper case with the camera on an arm (eye-in-hand; arm_general_motion's arm, goal and target):
     motion "x_translation", "z_rotation" or "general_motion", the start camera offset from the goal camera by
     EYE_TO_HAND_MOTIONS[motion] in its own frame. The z-rotation's start (pi about the optical axis) is
-    searched from the goal with the last joint turned by -pi, the way its limits allow: the servo must turn
-    it back by +pi (Servo.continue_turn(+pi), NodeParams.turn; the image noise would pick either way).
+    searched from the goal with the last joint turned by -pi: on the Panda (joint 7 +-2.9 rad) the servo
+    can only turn it back by +pi, which turn = +pi chooses (ibvs.sim.run's turn, NodeParams.turn; the image
+    noise would pick either way); the UR5's last joint (+-2 pi) turns either way.
     ValueError when the start cannot be reached within the joint limits."""
     if motion not in EYE_TO_HAND_MOTIONS:
         raise ValueError(f"motion must be one of {sorted(EYE_TO_HAND_MOTIONS)}, got {motion!r}")

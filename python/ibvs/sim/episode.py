@@ -99,6 +99,7 @@ def run(
     record=None,
     keep_lost: bool = False,
     goal_pose: str = "taught",
+    turn: float = math.nan,
 ) -> Result:
     """Simulate one closed-loop episode (in C++) and return its Result.
 
@@ -191,6 +192,9 @@ def run(
         times; an image sensor then keeps its frames (keep_frames). Needs the ros extra (rosbags).
         ibvs.ros.recorder lists the topics (docs/ros.md); ibvs.ros.replay runs a tracker and the servo
         over the bag again.
+    turn: radians, which way a half-turn about the optical axis goes (Servo.continue_turn, applied after the
+        run's reset of the servo): +pi or -pi instead of the first frame's image noise; NaN (default): the
+        noise decides. An ibvs.Servo only; NaN or |turn| <= 5 pi / 4 (ValueError otherwise).
     """
     if robot is not None and not isinstance(robot, Robot):
         raise TypeError(f"robot must be an ibvs.sim.Robot (a Gantry, a UrdfRobot...) or None, got {type(robot).__name__}")
@@ -256,6 +260,7 @@ def run(
         sensor=vision if recording is None else recording.sensor,
         keep_lost=_bool(keep_lost, "keep_lost"),
         goal_pose=goal_pose,
+        turn=_real(turn, "turn"),
     )
     status = RunStatus(d["outcome"], d["frame"], d["point"], d["joint"], d["feature"])
     history = History(

@@ -137,6 +137,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <random>
@@ -238,6 +239,10 @@ struct EpisodeOptions {
   /// wrong camera model a taught goal carries the current pose's bias and PBVS ends at the goal; a given
   /// one does not, and PBVS ends where the estimate equals it (docs/compare.md, "Calibration errors").
   GoalPose goal_pose = GoalPose::taught;
+  /// Which way a half-turn about the optical axis goes (radians, Servo::continue_turn after the run's
+  /// reset): +pi or -pi instead of the first frame's image noise; NaN (default): the noise decides. A
+  /// Servo only; NaN or |turn| <= pi + pi/4.
+  double turn = std::numeric_limits<double>::quiet_NaN();
 
   void validate() const;  ///< throws std::invalid_argument naming the field
 };
