@@ -4,10 +4,10 @@ hand in franky-sim's own scene (ibvs.robot.franky_scene), the dots tracked on th
 
 The turn: exactly pi about the optical axis. Every dot's polar angle error is then a tie (+-pi) that the
 rendered images' sub-pixel errors would break either way, while the FR3's seventh joint (+-2.97 rad in
-franky-sim's model, the camera on its axis) can turn pi one way only from any start: `[servo] turn = -pi` (Servo.continue_turn) chooses the
-way the joint allows (the camera turns negatively, joint 7 from +0.5 to -2.64). franky-sim starts at its home
-joints; the arm is first moved to the
-start with franky's own JointMotion."""
+franky-sim's model, the camera on its axis) can turn pi one way only from any start: `[servo] turn = -pi`
+(Servo.continue_turn) chooses the way the joint allows (the camera turns negatively, joint 7 from +0.5 to
+-2.64). franky-sim starts at its home joints; the arm is first moved to the start with franky's own
+JointMotion."""
 
 from __future__ import annotations
 

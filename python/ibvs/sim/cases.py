@@ -270,9 +270,10 @@ def arm_motion(name: str = "panda", motion: str = "general_motion", robot: Optio
 # (end effector <- target, (t, r) of pose()); the camera is fixed in the world, ARM_DESIRED_DEPTH in
 # front of it at the goal joints, looking back at the tool.
 EYE_TO_HAND_TARGET = ((0.0, 0.0, 0.1), (np.pi, 0.0, 0.0))
-#: The starts of eye_to_hand() and arm_motion(): motion name -> (t, r) of pose(), the start camera in the goal camera's frame
-#: relative to the target (the paper's offsets; the target moves the opposite way): its x-translation (0.2 at
-#: 3 m depth, scaled to 0.5 m), its z-rotation of pi and the general motion of arm_general_motion.
+#: The starts of eye_to_hand() and arm_motion(): motion name -> (t, r) of pose(), the start camera in the goal
+#: camera's frame relative to the target (the paper's offsets; the target moves the opposite way): its
+#: x-translation (0.2 at 3 m depth, scaled to 0.5 m), its z-rotation of pi and the general motion of
+#: arm_general_motion.
 EYE_TO_HAND_MOTIONS = {
     "x_translation": ((0.2 * ARM_DESIRED_DEPTH / 3.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
     "z_rotation": ((0.0, 0.0, 0.0), (0.0, 0.0, np.pi)),

@@ -121,8 +121,9 @@ def correlation(cv2, reference: np.ndarray, polygon: np.ndarray, H: np.ndarray, 
     (sensor noise, and the detail an enlarged reference lacks); a tile counts when the polygon covers 3/4
     of it and the warped reference varies in it (std >= 2 gray levels). Invariant to an affine change of the
     lighting; the median keeps it for a target up to half occluded, while a wrong H leaves most tiles
-    uncorrelated (near 0), and a tile where the image is flat (std < 1 gray level) scores 0. 0 when H takes part of the polygon through infinity, or fewer than 4 tiles of
-    8 px or more count (a target under about 22 px across)."""
+    uncorrelated (near 0), and a tile where the image is flat (std < 1 gray level) scores 0. 0 when H takes
+    part of the polygon through infinity, or fewer than 4 tiles of 8 px or more count (a target under about
+    22 px across)."""
     h, w = image.shape
     rh, rw = reference.shape
     ph = np.column_stack([polygon, np.ones(len(polygon))]) @ H.T

@@ -173,8 +173,9 @@ def run_loop(case, scheme: str = "cartesian", gain: float = 1.0, camera=None, du
 
     compensate: predict the features over `latency` (+ the robot's velocity lag `lag`, s) with
     ibvs.loop.latency.FeaturePredictor on the arm's kinematics (the loop's latency compensation, as `ibvs servo`
-    sets it up); False: the servo sees the delayed features. max_linear_speed, max_angular_speed: the servo's twist caps (m/s, rad/s). The result's
-    arrays come from the loop's JSON-lines log (time: frame stamps; error: tracked - desired pixels).
+    sets it up); False: the servo sees the delayed features. max_linear_speed, max_angular_speed: the servo's
+    twist caps (m/s, rad/s). The result's arrays come from the loop's JSON-lines log (time: frame stamps;
+    error: tracked - desired pixels).
     tolerance_px None: run for `duration` (the outcome is then "timeout" unless something else ended it).
     turn: radians, which way a half-turn about the optical axis goes (NodeParams.turn; NaN: the image noise's).
     """
