@@ -53,8 +53,7 @@ class KeypointTracker(PlanarTarget):
       image_size        None, or (width, height) every image must have
     detect(image) -> Track (status "detected" or "not_found" per point); after it: homography (reference ->
     image), matches, inliers, confidence (inliers / matches, 0 when not found), correlation (of the
-    last homography, NaN without one); region(), pose(camera,
-    object_points): see PlanarTarget. A reference with fewer than min_inliers keypoints in its region is
+    last homography, NaN without one); region(), pose(camera, object_points): see PlanarTarget. A reference with fewer than min_inliers keypoints in its region is
     refused (ValueError naming reference).
     """
 
@@ -143,11 +142,11 @@ class KeypointTracker(PlanarTarget):
                             cv2, self._reference, self._anchors, H, image, 21, self.ransac_threshold)
                         if fine is not None and fine[2].sum() >= self.min_inliers:
                             H = fine[0]
-        check = self.min_correlation > -1.0
-        if check and H is not None and self.inliers >= self.min_inliers and plausible(H, self._points, self.size):
+        found = H is not None and self.inliers >= self.min_inliers and plausible(H, self._points, self.size)
+        if found and self.min_correlation > -1.0:  # does the reference warped by H look like the image?
             self.correlation = correlation(cv2, self._reference, self._region, H, image)
-        if (H is None or self.inliers < self.min_inliers or not plausible(H, self._points, self.size)
-                or (check and not self.correlation >= self.min_correlation)):
+            found = self.correlation >= self.min_correlation
+        if not found:
             self.pixels = np.full((n, 2), np.nan)
             self.inliers = 0 if H is None else self.inliers
             return Track(self.pixels.copy(), ("not_found",) * n, time.perf_counter() - t0)

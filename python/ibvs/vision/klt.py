@@ -156,11 +156,11 @@ class KltTracker(PlanarTarget):
                 or not plausible(Hm, self._reference, self.size)):
             self._lost = True
             return
-        if self.min_correlation > -1.0:
+        if self.min_correlation > -1.0:  # does the first image warped by H look like this one?
             self.correlation = correlation(cv2, self._first, self._reference, Hm, image)
-        if self.min_correlation > -1.0 and not self.correlation >= self.min_correlation:
-            self._lost = True
-            return
+            if self.correlation < self.min_correlation:
+                self._lost = True
+                return
         self.homography = Hm / Hm[2, 2]
         self.pixels = map_points(self.homography, self._reference)
         if len(self._features) < self.redetect_below * self._first_count:
